@@ -1,0 +1,22 @@
+//! # slurry
+//!
+//! Particle-resolved simulation of dense solid–liquid suspensions: a D3Q19 lattice-Boltzmann
+//! fluid, an immersed boundary method for moving solid surfaces, rigid non-spherical particles,
+//! marker-based contacts, and revolving impellers in a closed tank. The first target is
+//! Derksen (2020), "Agitating cylindrical particles in laminar liquid flow".
+//!
+//! Everything in the core runs in lattice units (Δx = Δt = 1, ρ_fluid = 1).
+//!
+//! Module map (see `ARCHITECTURE.md`):
+//! - [`lattice`]: the velocity set and the grid;
+//! - [`lbm`]: the fluid solver (knows nothing of particles);
+//! - [`case`]: case files (TOML) and their validation;
+//! - [`io`]: HDF5/XDMF fields, CSV time series, atomic writes;
+//! - [`run`]: driving a case from start to output.
+#![warn(missing_docs)]
+
+pub mod case;
+pub mod io;
+pub mod lattice;
+pub mod lbm;
+pub mod run;
