@@ -15,6 +15,7 @@
 //! - [`run`]: driving a case from start to output.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod case;
 pub mod io;
 pub mod lattice;

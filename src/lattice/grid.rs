@@ -86,7 +86,7 @@ impl Face {
 
     /// Whether this is the low (`min`) face of its axis.
     pub fn is_min(self) -> bool {
-        self as usize % 2 == 0
+        (self as usize).is_multiple_of(2)
     }
 
     /// The face with the given axis and side.

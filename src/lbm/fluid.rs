@@ -175,7 +175,7 @@ impl<T: Real + Planes> Fluid<T> {
         &mut self,
         is_solid: impl Fn(usize, usize, usize) -> bool,
     ) -> Result<(), FluidError> {
-        if self.time % 2 == 1 {
+        if !self.time.is_multiple_of(2) {
             return Err(FluidError::OddTime { time: self.time });
         }
         let g = self.grid;
@@ -331,7 +331,7 @@ impl<T: Real + Planes> Fluid<T> {
 
     /// Advances one time step (one AA half-cycle; see the module docs).
     pub fn step(&mut self) {
-        let odd = self.time % 2 == 1;
+        let odd = !self.time.is_multiple_of(2);
         let s = Sweep {
             f: self.f.as_mut_ptr(),
             force: if self.force_on {
@@ -407,7 +407,7 @@ impl<T: Real + Planes> Fluid<T> {
     /// current time, whatever the AA parity.
     pub fn shifted_populations(&self, x: usize, y: usize, z: usize) -> [T; Q] {
         let p = self.pidx(x, y, z);
-        if self.time % 2 == 0 {
+        if self.time.is_multiple_of(2) {
             std::array::from_fn(|i| self.f[i * self.stride + p])
         } else {
             std::array::from_fn(|i| {

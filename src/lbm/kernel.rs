@@ -23,8 +23,11 @@
 //! skips them. The arithmetic is the same on every path, so results are bitwise identical
 //! across instruction sets, lane counts and thread counts.
 
-use super::collision::{collide, Rates};
+use super::collision::{collide, Pops, Rates};
+#[allow(unused_imports)]
 use super::real::{Lane, Real, V};
+#[cfg(target_arch = "x86_64")]
+use super::simd::{F32x16, F32x4, F32x8, F64x2, F64x4, F64x8};
 use crate::lattice::{OPP, Q};
 
 /// Raw view of the solver's arrays for one kernel sweep (internal; public only because
@@ -91,71 +94,96 @@ macro_rules! scalar_chunk {
 scalar_chunk!(f32);
 scalar_chunk!(f64);
 
-/// Updates the `width(K)` consecutive nodes starting at padded index `n`.
-#[inline(always)]
-unsafe fn nodes<K: Chunk, const ODD: bool, const TRT: bool, const FF: bool>(
-    s: &Sweep<K::S>,
-    n: usize,
-) {
-    let f = s.f;
-    let mut h: [K; Q] = [K::splat(K::S::ZERO); Q];
-    for (i, hi) in h.iter_mut().enumerate() {
-        let p = if ODD {
-            f.add(OPP[i] * s.stride).offset(n as isize - s.off[i])
-        } else {
-            f.add(i * s.stride + n)
-        };
-        *hi = K::ld(p);
+/// Base pointers of one row for the 19 reads, plus the force field. Kept in locals so that
+/// LLVM can see that the population stores do not clobber them. Writes need no pointers of
+/// their own: in both sweeps population `i` is written to the slot that `ī` was read from
+/// (even: `(x, ī)`; odd: `(x + c_i, i) = (x − c_ī, i)`), so `wr[i] = rd[ī]`.
+struct Row<T> {
+    rd: [*mut T; Q],
+    force: [*const T; 3],
+}
+
+/// The populations of the nodes `x .. x + width(K)` of a row, read and written in place.
+struct At<'a, K: Chunk> {
+    row: &'a Row<K::S>,
+    x: usize,
+}
+
+impl<K: Chunk> Pops<K> for At<'_, K> {
+    #[inline(always)]
+    fn get(&self, i: usize) -> K {
+        // SAFETY: the row pointers address valid slots for x in 0..nx (padded grid).
+        unsafe { K::ld(self.row.rd[i].add(self.x)) }
     }
+    #[inline(always)]
+    fn set(&mut self, i: usize, v: K) {
+        // SAFETY: as above; the slots written for pair (i, ī) are the ones read for it.
+        unsafe { v.st(self.row.rd[OPP[i]].add(self.x)) }
+    }
+}
+
+/// Updates the `width(K)` consecutive nodes starting `x` nodes into the row.
+#[inline(always)]
+unsafe fn nodes<K: Chunk, const TRT: bool, const FF: bool>(
+    r: &Row<K::S>,
+    x: usize,
+    body: &[K::S; 3],
+    rates: &Rates<K::S>,
+) {
     let force = if FF {
         [
-            K::ld(s.force.add(n)) + K::splat(s.body[0]),
-            K::ld(s.force.add(s.stride + n)) + K::splat(s.body[1]),
-            K::ld(s.force.add(2 * s.stride + n)) + K::splat(s.body[2]),
+            K::ld(r.force[0].add(x)) + K::splat(body[0]),
+            K::ld(r.force[1].add(x)) + K::splat(body[1]),
+            K::ld(r.force[2].add(x)) + K::splat(body[2]),
         ]
     } else {
-        [
-            K::splat(s.body[0]),
-            K::splat(s.body[1]),
-            K::splat(s.body[2]),
-        ]
+        [K::splat(body[0]), K::splat(body[1]), K::splat(body[2])]
     };
-    collide::<K, TRT>(&mut h, force, &s.rates);
-    for (i, hi) in h.iter().enumerate() {
-        let p = if ODD {
-            f.add(i * s.stride).offset(n as isize + s.off[i])
-        } else {
-            f.add(OPP[i] * s.stride + n)
-        };
-        hi.st(p);
-    }
+    collide::<K, _, TRT>(&mut At { row: r, x }, force, rates);
 }
 
 /// Updates every fluid node of interior plane `z` (0-based).
 #[inline(always)]
-unsafe fn plane<T: Real, const L: usize, const ODD: bool, const TRT: bool, const FF: bool>(
+unsafe fn plane<T: Real + Chunk<S = T>, K: Chunk<S = T>, const ODD: bool, const TRT: bool, const FF: bool>(
     s: &Sweep<T>,
     z: usize,
-) where
-    T: Chunk<S = T>,
-{
-    for y in 0..s.ny {
-        let start = 1 + s.px * ((y + 1) + s.py * (z + 1));
-        if *s.row_has_solid.add(y + s.ny * z) {
-            for x in 0..s.nx {
-                if !*s.solid.add(start + x) {
-                    nodes::<T, ODD, TRT, FF>(s, start + x);
+) {
+    let width = std::mem::size_of::<K>() / std::mem::size_of::<T>();
+    let (f, stride, off, nx, ny, px, py) = (s.f, s.stride, s.off, s.nx, s.ny, s.px, s.py);
+    let rates = s.rates;
+    let body = s.body;
+    for y in 0..ny {
+        let start = 1 + px * ((y + 1) + py * (z + 1));
+        let row = Row {
+            rd: std::array::from_fn(|i| {
+                if ODD {
+                    f.add(OPP[i] * stride).offset(start as isize - off[i])
+                } else {
+                    f.add(i * stride + start)
+                }
+            }),
+            force: if FF {
+                std::array::from_fn(|a| s.force.add(a * stride + start))
+            } else {
+                [std::ptr::null(); 3]
+            },
+        };
+        if *s.row_has_solid.add(y + ny * z) {
+            let solid = s.solid.add(start);
+            for x in 0..nx {
+                if !*solid.add(x) {
+                    nodes::<T, TRT, FF>(&row, x, &body, &rates);
                 }
             }
             continue;
         }
         let mut x = 0;
-        while x + L <= s.nx {
-            nodes::<V<T, L>, ODD, TRT, FF>(s, start + x);
-            x += L;
+        while x + width <= nx {
+            nodes::<K, TRT, FF>(&row, x, &body, &rates);
+            x += width;
         }
-        while x < s.nx {
-            nodes::<T, ODD, TRT, FF>(s, start + x);
+        while x < nx {
+            nodes::<T, TRT, FF>(&row, x, &body, &rates);
             x += 1;
         }
     }
@@ -201,10 +229,7 @@ impl Isa {
     /// Every instruction set this CPU can run, narrowest first (for equivalence tests).
     pub fn available() -> Vec<Isa> {
         let best = Self::best();
-        [Isa::Generic, Isa::Avx2, Isa::Avx512]
-            .into_iter()
-            .filter(|&i| i as u8 <= best as u8)
-            .collect()
+        [Isa::Generic, Isa::Avx2, Isa::Avx512].into_iter().filter(|&i| i as u8 <= best as u8).collect()
     }
 
     /// Short name.
@@ -221,7 +246,7 @@ impl Isa {
 #[target_feature(enable = "avx2,fma")]
 unsafe fn plane_avx2<
     T: Real + Chunk<S = T>,
-    const L: usize,
+    K: Chunk<S = T>,
     const ODD: bool,
     const TRT: bool,
     const FF: bool,
@@ -229,14 +254,14 @@ unsafe fn plane_avx2<
     s: &Sweep<T>,
     z: usize,
 ) {
-    plane::<T, L, ODD, TRT, FF>(s, z)
+    plane::<T, K, ODD, TRT, FF>(s, z)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx2,fma")]
 unsafe fn plane_avx512<
     T: Real + Chunk<S = T>,
-    const L: usize,
+    K: Chunk<S = T>,
     const ODD: bool,
     const TRT: bool,
     const FF: bool,
@@ -244,7 +269,7 @@ unsafe fn plane_avx512<
     s: &Sweep<T>,
     z: usize,
 ) {
-    plane::<T, L, ODD, TRT, FF>(s, z)
+    plane::<T, K, ODD, TRT, FF>(s, z)
 }
 
 /// Per-precision choice of lane counts; implemented for `f32` and `f64`.
@@ -255,15 +280,11 @@ pub trait Planes: Real {
     /// # Safety
     /// `s` must describe valid arrays for the padded grid, and no other thread may touch the
     /// slots of this plane's nodes during the call.
-    unsafe fn plane<const ODD: bool, const TRT: bool, const FF: bool>(
-        isa: Isa,
-        s: &Sweep<Self>,
-        z: usize,
-    );
+    unsafe fn plane<const ODD: bool, const TRT: bool, const FF: bool>(isa: Isa, s: &Sweep<Self>, z: usize);
 }
 
 macro_rules! planes {
-    ($t:ty, $generic:literal, $avx2:literal, $avx512:literal) => {
+    ($t:ty, $generic:ty, $avx2:ty, $avx512:ty) => {
         impl Planes for $t {
             #[inline]
             unsafe fn plane<const ODD: bool, const TRT: bool, const FF: bool>(
@@ -282,17 +303,21 @@ macro_rules! planes {
         }
     };
 }
-planes!(f64, 2, 4, 8);
-planes!(f32, 4, 8, 16);
+#[cfg(target_arch = "x86_64")]
+planes!(f64, F64x2, F64x4, F64x8);
+#[cfg(target_arch = "x86_64")]
+planes!(f32, F32x4, F32x8, F32x16);
+#[cfg(not(target_arch = "x86_64"))]
+planes!(f64, V<f64, 2>, V<f64, 4>, V<f64, 8>);
+#[cfg(not(target_arch = "x86_64"))]
+planes!(f32, V<f32, 4>, V<f32, 8>, V<f32, 16>);
 
 /// Runs one sweep (even or odd) over all interior planes, in parallel with rayon.
 pub(crate) fn sweep<T: Planes>(isa: Isa, s: &Sweep<T>, nz: usize, odd: bool, trt: bool, ff: bool) {
     use rayon::prelude::*;
     macro_rules! go {
         ($o:literal, $t:literal, $f:literal) => {
-            (0..nz)
-                .into_par_iter()
-                .for_each(|z| unsafe { T::plane::<$o, $t, $f>(isa, s, z) })
+            (0..nz).into_par_iter().for_each(|z| unsafe { T::plane::<$o, $t, $f>(isa, s, z) })
         };
     }
     match (odd, trt, ff) {

@@ -18,6 +18,7 @@ pub mod kernel;
 pub mod params;
 pub mod real;
 pub mod reference;
+pub mod simd;
 
 pub use boundary::{Boundaries, FaceBoundary};
 pub use fluid::{equilibrium, Fluid};

@@ -87,6 +87,11 @@ pub trait Lane:
     type S: Real;
     /// All lanes set to `s`.
     fn splat(s: Self::S) -> Self;
+    /// `self · a + b`, rounded once (fused multiply-add). Every implementation rounds
+    /// exactly like `f64::mul_add`, so all kernels agree bitwise.
+    fn fma(self, a: Self, b: Self) -> Self;
+    /// `self · a − b`, rounded once.
+    fn fms(self, a: Self, b: Self) -> Self;
 }
 
 impl Lane for f64 {
@@ -95,6 +100,14 @@ impl Lane for f64 {
     fn splat(s: f64) -> Self {
         s
     }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, b)
+    }
+    #[inline(always)]
+    fn fms(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, -b)
+    }
 }
 
 impl Lane for f32 {
@@ -102,6 +115,14 @@ impl Lane for f32 {
     #[inline(always)]
     fn splat(s: f32) -> Self {
         s
+    }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, b)
+    }
+    #[inline(always)]
+    fn fms(self, a: Self, b: Self) -> Self {
+        self.mul_add(a, -b)
     }
 }
 
@@ -134,6 +155,7 @@ impl<T: Real, const L: usize> V<T, L> {
 
 macro_rules! lane_binop {
     ($tr:ident, $f:ident, $op:tt) => {
+        #[allow(clippy::assign_op_pattern)]
         impl<T: Real, const L: usize> $tr for V<T, L> {
             type Output = Self;
             #[inline(always)]
@@ -169,5 +191,21 @@ impl<T: Real, const L: usize> Lane for V<T, L> {
     #[inline(always)]
     fn splat(s: T) -> Self {
         V([s; L])
+    }
+    #[inline(always)]
+    fn fma(self, a: Self, b: Self) -> Self {
+        let mut r = self.0;
+        for l in 0..L {
+            r[l] = r[l].fma(a.0[l], b.0[l]);
+        }
+        V(r)
+    }
+    #[inline(always)]
+    fn fms(self, a: Self, b: Self) -> Self {
+        let mut r = self.0;
+        for l in 0..L {
+            r[l] = r[l].fms(a.0[l], b.0[l]);
+        }
+        V(r)
     }
 }

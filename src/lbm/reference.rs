@@ -28,11 +28,7 @@ pub struct ReferenceFluid<T: Real> {
 
 impl<T: Real> ReferenceFluid<T> {
     /// A fluid at rest filling the box.
-    pub fn new(
-        grid: Grid,
-        params: FluidParams,
-        boundaries: Boundaries,
-    ) -> Result<Self, FluidError> {
+    pub fn new(grid: Grid, params: FluidParams, boundaries: Boundaries) -> Result<Self, FluidError> {
         params.validate()?;
         boundaries.validate()?;
         let (op, om) = params.rates();
@@ -97,9 +93,9 @@ impl<T: Real> ReferenceFluid<T> {
                 self.body
             };
             if self.params.is_trt() {
-                collide::<T, true>(&mut h, fc, &self.rates);
+                collide::<T, _, true>(&mut h, fc, &self.rates);
             } else {
-                collide::<T, false>(&mut h, fc, &self.rates);
+                collide::<T, _, false>(&mut h, fc, &self.rates);
             }
             let x = g.coords(n);
             for i in 0..Q {
