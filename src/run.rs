@@ -1,1 +1,218 @@
-//! Running a case.
+//! Running a case from start to output.
+//!
+//! [`run_case`] initialises the fluid, advances it in blocks of `run.output_every` steps
+//! (the last block may be shorter) and, after step 0 and each block, checks its health,
+//! appends a row to `timeseries.csv` and updates the progress bar. Nothing else happens
+//! between output points: the stepping loop does no I/O. At the end it writes `fields.h5`
+//! with `fields.xmf` beside it, the normalised case as `case.toml`, and `summary.json`.
+//!
+//! Numerical trouble (non-finite populations, non-positive density, Mach number above
+//! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
+//! the time series up to the last healthy output is kept.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Serialize;
+
+use crate::case::{Case, Precision};
+use crate::io::{atomic_write_bytes, write_fields_h5, write_xdmf, TimeSeriesRow, TimeSeriesWriter};
+use crate::lattice::Grid;
+use crate::lbm::kernel::Planes;
+use crate::lbm::{Fluid, Health, Real};
+
+/// File names written into the output directory.
+pub mod files {
+    /// The scalar time series.
+    pub const TIMESERIES: &str = "timeseries.csv";
+    /// Final density and velocity (HDF5).
+    pub const FIELDS_H5: &str = "fields.h5";
+    /// XDMF description of [`FIELDS_H5`] for ParaView.
+    pub const FIELDS_XMF: &str = "fields.xmf";
+    /// Run summary (JSON).
+    pub const SUMMARY: &str = "summary.json";
+    /// The case as run (normalised TOML).
+    pub const CASE: &str = "case.toml";
+}
+
+/// Options that do not change the physics.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions {
+    /// No progress bar (it is also hidden when stderr is not a terminal).
+    pub quiet: bool,
+}
+
+/// What a finished run reports (also written as `summary.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RunSummary {
+    /// Steps run.
+    pub steps: u64,
+    /// Grid.
+    pub grid: Grid,
+    /// Storage precision (`"f32"` or `"f64"`).
+    pub precision: &'static str,
+    /// The kernel's instruction set.
+    pub isa: String,
+    /// Rayon threads used.
+    pub threads: usize,
+    /// Wall-clock time of the whole run, including output (s).
+    pub wall_time_s: f64,
+    /// Time spent stepping only (s).
+    pub step_time_s: f64,
+    /// Million lattice-node updates per second over the stepping time.
+    pub mlups: f64,
+    /// Mass at step 0.
+    pub initial_mass: f64,
+    /// Mass at the last step.
+    pub final_mass: f64,
+    /// `(final − initial) / initial`.
+    pub relative_mass_change: f64,
+    /// Final total momentum.
+    pub final_momentum: [f64; 3],
+    /// Largest Mach number seen at any output step.
+    pub max_mach: f64,
+    /// Number of time-series rows written.
+    pub output_rows: u64,
+}
+
+/// The run stopped for numerical trouble. Its Display is the diagnosis.
+#[derive(Clone, Debug, thiserror::Error)]
+#[error("numerical trouble at step {step}: {health}; the time series up to step {last_good} is in {}", timeseries.display())]
+pub struct NumericalError {
+    /// Step at which the check failed.
+    pub step: u64,
+    /// Last step that passed the check.
+    pub last_good: u64,
+    /// The solver's health report.
+    pub health: Health,
+    /// The time-series file.
+    pub timeseries: PathBuf,
+}
+
+/// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
+/// run there are replaced). Uses the current rayon thread pool.
+pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
+    case.validate().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    std::fs::create_dir_all(out_dir)
+        .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
+    match case.fluid.precision {
+        Precision::F32 => run_typed::<f32>(case, out_dir, opts),
+        Precision::F64 => run_typed::<f64>(case, out_dir, opts),
+    }
+}
+
+fn progress_bar(steps: u64, quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::with_draw_target(Some(steps), ProgressDrawTarget::stderr());
+    pb.set_style(
+        ProgressStyle::with_template(
+            "{bar:40.cyan/blue} {pos}/{len} steps  {msg}  elapsed {elapsed}  left {eta}",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    pb
+}
+
+fn run_typed<T: Real + Planes>(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
+    let start = Instant::now();
+    let grid = case.grid();
+    let nodes = grid.nodes() as f64;
+    let mut fluid =
+        Fluid::<T>::new(grid, case.fluid_params(), case.boundaries()).context("cannot set up the fluid")?;
+    fluid.initialize(|x, y, z| case.initial_state(x, y, z));
+
+    let case_text = toml::to_string(case).context("cannot serialise the case")?;
+    let case_path = out_dir.join(files::CASE);
+    atomic_write_bytes(&case_path, case_text.as_bytes())
+        .with_context(|| format!("cannot write {}", case_path.display()))?;
+    let ts_path = out_dir.join(files::TIMESERIES);
+    let mut ts =
+        TimeSeriesWriter::create(&ts_path).with_context(|| format!("cannot write {}", ts_path.display()))?;
+
+    let limit = case.run.mach_limit;
+    let total = case.run.steps;
+    let every = case.run.output_every;
+    let pb = progress_bar(total, opts.quiet);
+    let mut step_time = Duration::ZERO;
+    let mut max_mach: f64 = 0.0;
+    let mut rows = 0u64;
+    let mut last_good = 0u64;
+    let mut initial_mass = f64::NAN;
+    let mut block_mlups = 0.0;
+
+    loop {
+        let step = fluid.time();
+        let health = fluid.health(limit);
+        if !health.is_ok() {
+            pb.abandon();
+            return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
+        }
+        last_good = step;
+        max_mach = max_mach.max(health.max_mach);
+        let mass = fluid.total_mass();
+        if step == 0 {
+            initial_mass = mass;
+        }
+        ts.append(&TimeSeriesRow {
+            step,
+            time: step as f64,
+            mass,
+            momentum: fluid.total_momentum(),
+            max_mach: health.max_mach,
+            mlups: block_mlups,
+        })
+        .with_context(|| format!("cannot write {}", ts_path.display()))?;
+        rows += 1;
+        if step >= total {
+            break;
+        }
+        let block = every.min(total - step);
+        let t0 = Instant::now();
+        fluid.run(block);
+        let dt = t0.elapsed();
+        step_time += dt;
+        block_mlups = nodes * block as f64 / dt.as_secs_f64().max(1e-9) / 1e6;
+        pb.set_message(format!("{block_mlups:.1} MLUPS"));
+        pb.set_position(fluid.time());
+    }
+    pb.finish_and_clear();
+    ts.sync().with_context(|| format!("cannot sync {}", ts_path.display()))?;
+
+    let (rho, u) = fluid.fields();
+    let h5 = out_dir.join(files::FIELDS_H5);
+    write_fields_h5(&h5, grid, fluid.time(), &rho, &u)
+        .with_context(|| format!("cannot write {}", h5.display()))?;
+    let xmf = out_dir.join(files::FIELDS_XMF);
+    write_xdmf(&xmf, grid, fluid.time(), files::FIELDS_H5)
+        .with_context(|| format!("cannot write {}", xmf.display()))?;
+
+    let final_mass = fluid.total_mass();
+    let step_s = step_time.as_secs_f64();
+    let summary = RunSummary {
+        steps: fluid.time(),
+        grid,
+        precision: T::NAME,
+        isa: fluid.isa().name().to_string(),
+        threads: rayon::current_num_threads(),
+        wall_time_s: start.elapsed().as_secs_f64(),
+        step_time_s: step_s,
+        mlups: nodes * fluid.time() as f64 / step_s.max(1e-9) / 1e6,
+        initial_mass,
+        final_mass,
+        relative_mass_change: (final_mass - initial_mass) / initial_mass,
+        final_momentum: fluid.total_momentum(),
+        max_mach,
+        output_rows: rows,
+    };
+    let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
+    let sp = out_dir.join(files::SUMMARY);
+    atomic_write_bytes(&sp, format!("{json}\n").as_bytes())
+        .with_context(|| format!("cannot write {}", sp.display()))?;
+    Ok(summary)
+}

@@ -1,1 +1,22 @@
-//! Output.
+//! Output: atomic file writes, HDF5 fields with an XDMF description, CSV time series.
+//!
+//! Every file is written atomically ([`atomic_write`]): to a temporary file in the same
+//! directory, synced, then renamed over the target, so a reader (or a crash) never sees a
+//! half-written file. The time series is the one exception by design: it grows row by row
+//! ([`TimeSeriesWriter`]); its header is written atomically and each row is one `write` of a
+//! complete line followed by a flush, so a crash can at worst truncate the last row.
+//!
+//! - [`atomic`]: [`atomic_write`], [`atomic_write_bytes`];
+//! - [`fields`]: [`write_fields_h5`] (`/density`, `/velocity`, shaped z-slowest);
+//! - [`xdmf`]: [`write_xdmf`] (XDMF 3 for ParaView, referencing the HDF5 datasets);
+//! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`].
+
+pub mod atomic;
+pub mod fields;
+pub mod timeseries;
+pub mod xdmf;
+
+pub use atomic::{atomic_write, atomic_write_bytes};
+pub use fields::{write_fields_h5, FieldsError};
+pub use timeseries::{TimeSeriesRow, TimeSeriesWriter};
+pub use xdmf::{write_xdmf, xdmf_text};

@@ -1,0 +1,310 @@
+//! One test per validation rule.
+
+use super::*;
+
+const BASE: &str = r#"
+[domain]
+nx = 4
+ny = 4
+nz = 8
+
+[fluid]
+precision = "f64"
+nu = 0.1
+collision = "trt"
+body_force = [1e-6, 0.0, 0.0]
+
+[boundaries]
+x_min = "periodic"
+x_max = "periodic"
+y_min = "periodic"
+y_max = "periodic"
+z_min = "no_slip"
+z_max = { moving_wall = [0.01, 0.0, 0.0] }
+
+[run]
+steps = 100
+output_every = 10
+"#;
+
+/// BASE with the line starting with `prefix` replaced by `line` (or `line` appended to
+/// section `[section]` when `prefix` starts with `[`).
+fn edit(prefix: &str, line: &str) -> String {
+    if prefix.starts_with('[') {
+        return BASE.replace(prefix, &format!("{prefix}\n{line}"));
+    }
+    let mut found = false;
+    let out: Vec<String> = BASE
+        .lines()
+        .map(|l| {
+            if l.starts_with(prefix) {
+                found = true;
+                line.to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    assert!(found, "no line starting with {prefix}");
+    out.join("\n")
+}
+
+fn err(text: &str) -> CaseError {
+    match Case::parse(text, "t.toml") {
+        Ok(c) => panic!("accepted: {c:?}"),
+        Err(e) => e,
+    }
+}
+
+/// Asserts the error names `key` and that its message contains every needle.
+fn assert_err(text: &str, key: &str, needles: &[&str]) {
+    let e = err(text);
+    let msg = e.to_string();
+    assert!(msg.starts_with("t.toml: "), "{msg}");
+    assert_eq!(e.kind.key(), Some(key), "{msg}");
+    assert!(msg.contains(key), "{msg}");
+    for n in needles {
+        assert!(msg.contains(n), "{msg} lacks {n}");
+    }
+}
+
+#[test]
+fn base_case_is_valid_and_converts() {
+    let c = Case::parse(BASE, "t.toml").unwrap();
+    assert_eq!(c.grid(), Grid::new(4, 4, 8));
+    assert!((c.tau() - 0.8).abs() < 1e-12);
+    let p = c.fluid_params();
+    assert_eq!(p.collision, Collision::Trt { magic: 3.0 / 16.0 });
+    assert_eq!(p.body_force, [1e-6, 0.0, 0.0]);
+    let b = c.boundaries();
+    assert_eq!(b.get(Face::XMin), FaceBoundary::Periodic);
+    assert_eq!(b.get(Face::ZMin), FaceBoundary::NoSlip);
+    assert_eq!(b.get(Face::ZMax), FaceBoundary::MovingWall { velocity: [0.01, 0.0, 0.0] });
+    assert_eq!(c.run.mach_limit, 0.3);
+    assert_eq!(c.initial, InitialSection::default());
+    assert_eq!(c.output_rows(), 11);
+    assert_eq!(c.initial_state(1, 2, 3), (1.0, [0.0; 3]));
+}
+
+#[test]
+fn tau_converts_to_nu() {
+    let c = Case::parse(&edit("nu =", "tau = 0.65"), "t.toml").unwrap();
+    assert!((c.nu() - 0.05).abs() < 1e-15);
+    assert!((c.fluid_params().tau() - 0.65).abs() < 1e-15);
+}
+
+#[test]
+fn normalised_case_round_trips_through_toml() {
+    let c = Case::parse(BASE, "t.toml").unwrap();
+    let text = toml::to_string(&c).unwrap();
+    assert_eq!(Case::parse(&text, "n.toml").unwrap(), c);
+}
+
+#[test]
+fn syntax_error_has_line() {
+    let e = err("[domain\nnx = 1");
+    assert!(matches!(e.kind, CaseErrorKind::Syntax { line: 1, .. }), "{e}");
+}
+
+#[test]
+fn unknown_key_in_section_lists_allowed() {
+    assert_err(
+        &edit("nu =", "viscosity = 0.1"),
+        "fluid.viscosity",
+        &["unknown key", "nu, tau", "precision", "body_force"],
+    );
+}
+
+#[test]
+fn unknown_section_lists_allowed() {
+    assert_err(
+        &format!("{BASE}\n[output]\nevery = 1\n"),
+        "output",
+        &["unknown key", "domain, fluid, boundaries, initial, run"],
+    );
+}
+
+#[test]
+fn unknown_face_is_rejected() {
+    assert_err(&edit("[boundaries]", "w_min = \"periodic\""), "boundaries.w_min", &["x_min"]);
+}
+
+#[test]
+fn missing_keys_are_named() {
+    assert_err(&edit("nz =", ""), "domain.nz", &["missing key"]);
+    assert_err(&edit("steps =", ""), "run.steps", &["missing key"]);
+    assert_err(&edit("z_max =", ""), "boundaries.z_max", &["missing key", "no_slip"]);
+    let no_domain = BASE.replace("[domain]\nnx = 4\nny = 4\nnz = 8\n", "");
+    assert_err(&no_domain, "domain", &["missing key"]);
+    assert_err(&edit("nu =", ""), "fluid.nu", &["missing key", "tau"]);
+}
+
+#[test]
+fn wrong_precision_names_options() {
+    assert_err(
+        &edit("precision =", "precision = \"f16\""),
+        "fluid.precision",
+        &["f16", "f32", "f64", "line 8"],
+    );
+}
+
+#[test]
+fn wrong_collision_names_options() {
+    assert_err(&edit("collision =", "collision = \"mrt\""), "fluid.collision", &["mrt", "bgk", "trt"]);
+}
+
+#[test]
+fn wrong_boundary_kind_names_options() {
+    assert_err(
+        &edit("z_min =", "z_min = \"noslip\""),
+        "boundaries.z_min",
+        &["noslip", "periodic", "no_slip", "moving_wall"],
+    );
+}
+
+#[test]
+fn wrong_type_names_key() {
+    assert_err(&edit("nx =", "nx = \"four\""), "domain.nx", &["four"]);
+    assert_err(&edit("nx =", "nx = -4"), "domain.nx", &["-4"]);
+    assert_err(&edit("nx =", "nx = 4.5"), "domain.nx", &["line"]);
+}
+
+#[test]
+fn zero_size_is_rejected() {
+    assert_err(&edit("ny =", "ny = 0"), "domain.ny", &["ny = 0", ">= 1"]);
+}
+
+#[test]
+fn huge_grid_is_rejected() {
+    let t = edit("nx =", "nx = 2000").replace("ny = 4", "ny = 2000").replace("nz = 8", "nz = 2000");
+    assert_err(&t, "domain", &["2^32"]);
+}
+
+#[test]
+fn tau_at_or_below_half_is_rejected() {
+    assert_err(&edit("nu =", "tau = 0.5"), "fluid.tau", &["fluid.tau = 0.5", "> 0.5", "tau = 3 nu + 1/2"]);
+    assert_err(&edit("nu =", "tau = 0.2"), "fluid.tau", &["> 0.5"]);
+    assert_err(&edit("nu =", "tau = nan"), "fluid.tau", &["NaN"]);
+}
+
+#[test]
+fn nonpositive_nu_is_rejected() {
+    assert_err(&edit("nu =", "nu = 0.0"), "fluid.nu", &["fluid.nu = 0", "> 0"]);
+    assert_err(&edit("nu =", "nu = -0.1"), "fluid.nu", &["-0.1"]);
+    assert_err(&edit("nu =", "nu = inf"), "fluid.nu", &["finite"]);
+}
+
+#[test]
+fn nu_and_tau_together_are_rejected() {
+    assert_err(&edit("nu =", "nu = 0.1\ntau = 0.8"), "fluid.tau", &["not both"]);
+}
+
+#[test]
+fn magic_rules() {
+    assert_err(&edit("collision =", "collision = \"trt\"\nmagic = 0.0"), "fluid.magic", &["> 0"]);
+    assert_err(
+        &edit("collision =", "collision = \"bgk\"\nmagic = 0.25"),
+        "fluid.magic",
+        &["only allowed", "trt"],
+    );
+    let c = Case::parse(&edit("collision =", "collision = \"trt\"\nmagic = 0.25"), "t").unwrap();
+    assert_eq!(c.fluid_params().collision, Collision::Trt { magic: 0.25 });
+}
+
+#[test]
+fn nonfinite_body_force_is_rejected() {
+    assert_err(&edit("body_force =", "body_force = [0.0, nan, 0.0]"), "fluid.body_force", &["finite"]);
+}
+
+#[test]
+fn one_sided_periodic_names_both_faces() {
+    assert_err(
+        &edit("x_max =", "x_max = \"no_slip\""),
+        "boundaries.x_min/x_max",
+        &["pairs", "\"periodic\" / \"no_slip\""],
+    );
+}
+
+#[test]
+fn wall_moving_through_itself_is_rejected() {
+    assert_err(
+        &edit("z_max =", "z_max = { moving_wall = [0.0, 0.0, 0.01] }"),
+        "boundaries.z_max.moving_wall",
+        &["z component must be 0"],
+    );
+}
+
+#[test]
+fn fast_wall_is_rejected() {
+    assert_err(
+        &edit("z_max =", "z_max = { moving_wall = [0.3, 0.0, 0.0] }"),
+        "boundaries.z_max.moving_wall",
+        &["Mach", "run.mach_limit = 0.3"],
+    );
+}
+
+#[test]
+fn run_ranges() {
+    assert_err(&edit("steps =", "steps = 0"), "run.steps", &[">= 1"]);
+    assert_err(&edit("output_every =", "output_every = 0"), "run.output_every", &["1 <= "]);
+    assert_err(&edit("output_every =", "output_every = 101"), "run.output_every", &["<= run.steps = 100"]);
+    assert_err(&edit("[run]", "mach_limit = 0.0"), "run.mach_limit", &["(0, 1]"]);
+    assert_err(&edit("[run]", "mach_limit = 1.5"), "run.mach_limit", &["(0, 1]"]);
+    let c = Case::parse(&edit("output_every =", "output_every = 30"), "t").unwrap();
+    assert_eq!(c.output_rows(), 5); // 0, 30, 60, 90, 100
+}
+
+#[test]
+fn initial_rules() {
+    let with = |l: &str| format!("{BASE}\n[initial]\n{l}\n");
+    assert_err(&with("density = 0.0"), "initial.density", &["> 0"]);
+    assert_err(&with("velocity = [0.5, 0.0, 0.0]"), "initial.velocity", &["Mach"]);
+    assert_err(&with("velocity = [inf, 0.0, 0.0]"), "initial.velocity", &["finite"]);
+    assert_err(&with("amplitude = 0.01"), "initial.amplitude", &["taylor_green"]);
+    assert_err(&with("kind = \"taylor_green\""), "initial.amplitude", &["missing key"]);
+    assert_err(
+        &with("kind = \"taylor_green\"\namplitude = 0.01\nvelocity = [0.0, 0.0, 0.0]"),
+        "initial.velocity",
+        &["not allowed"],
+    );
+    assert_err(&with("kind = \"taylor_green\"\namplitude = 0.5"), "initial.amplitude", &["(0, "]);
+    assert_err(&with("kind = \"vortex\""), "initial.kind", &["uniform", "taylor_green"]);
+    let closed = BASE.replace("\"periodic\"", "\"no_slip\"");
+    assert_err(
+        &format!("{closed}\n[initial]\nkind = \"taylor_green\"\namplitude = 0.01\n"),
+        "initial.kind",
+        &["periodic boundaries.x_min"],
+    );
+    let c = Case::parse(&with("velocity = [0.01, 0.0, 0.0]\ndensity = 1.1"), "t").unwrap();
+    assert_eq!(c.initial_state(0, 0, 0), (1.1, [0.01, 0.0, 0.0]));
+}
+
+#[test]
+fn taylor_green_field_is_divergence_free_and_bounded() {
+    let c =
+        Case::parse(&format!("{BASE}\n[initial]\nkind = \"taylor_green\"\namplitude = 0.02\n"), "t").unwrap();
+    let (nx, ny) = (4, 4);
+    let mut umax: f64 = 0.0;
+    for y in 0..ny {
+        for x in 0..nx {
+            let (rho, u) = c.initial_state(x, y, 0);
+            assert!(rho > 0.99 && rho < 1.01);
+            umax = umax.max(norm(u));
+            assert_eq!(u[2], 0.0);
+        }
+    }
+    assert!(umax <= 0.02 * 2f64.sqrt() + 1e-12);
+}
+
+#[test]
+fn every_error_is_one_line() {
+    for t in [
+        edit("precision =", "precision = \"f16\""),
+        edit("nu =", "viscosity = 0.1"),
+        edit("nu =", "tau = 0.5"),
+        "[domain\n".to_string(),
+    ] {
+        let m = err(&t).to_string();
+        assert!(!m.trim_end().contains('\n'), "{m}");
+    }
+}

@@ -1,0 +1,129 @@
+//! Scalar time series as CSV, one row per output step.
+//!
+//! Columns: `step, time, mass, momentum_x, momentum_y, momentum_z, max_mach, mlups`
+//! (lattice units; `time = step` since Δt = 1; `mlups` is the throughput of the block of
+//! steps that ended at this row, 0 on the first row). Numbers are written in Rust's shortest
+//! round-trip form, so `f64` values read back exactly.
+
+use std::fs::{File, OpenOptions};
+use std::io::{self, Write};
+use std::path::{Path, PathBuf};
+
+use super::atomic::atomic_write_bytes;
+
+/// The CSV header line (without the newline).
+pub const HEADER: &str = "step,time,mass,momentum_x,momentum_y,momentum_z,max_mach,mlups";
+
+/// Shortest round-trip form: plain decimal for moderate magnitudes, scientific otherwise
+/// (Rust's plain `{}` would spell out 1e-300 with 300 zeros).
+fn num(v: f64) -> String {
+    let a = v.abs();
+    if v == 0.0 || (1e-4..1e16).contains(&a) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// One row of the time series.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimeSeriesRow {
+    /// Time step.
+    pub step: u64,
+    /// Time (lattice units; equals `step`).
+    pub time: f64,
+    /// Total mass `Σ ρ`.
+    pub mass: f64,
+    /// Total momentum `Σ ρ u`.
+    pub momentum: [f64; 3],
+    /// Largest Mach number `|u|/c_s`.
+    pub max_mach: f64,
+    /// Million lattice-node updates per second over the preceding block.
+    pub mlups: f64,
+}
+
+impl TimeSeriesRow {
+    /// The CSV line (with the trailing newline).
+    pub fn to_csv_line(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{}\n",
+            self.step,
+            num(self.time),
+            num(self.mass),
+            num(self.momentum[0]),
+            num(self.momentum[1]),
+            num(self.momentum[2]),
+            num(self.max_mach),
+            num(self.mlups)
+        )
+    }
+}
+
+/// Appends rows to a CSV file whose header was written atomically.
+#[derive(Debug)]
+pub struct TimeSeriesWriter {
+    path: PathBuf,
+    file: File,
+}
+
+impl TimeSeriesWriter {
+    /// Creates (or replaces) the file with just the header, atomically, and opens it for
+    /// appending.
+    pub fn create(path: &Path) -> io::Result<Self> {
+        atomic_write_bytes(path, format!("{HEADER}\n").as_bytes())?;
+        let file = OpenOptions::new().append(true).open(path)?;
+        Ok(Self { path: path.to_path_buf(), file })
+    }
+
+    /// Appends one row as a single write and flushes it.
+    pub fn append(&mut self, row: &TimeSeriesRow) -> io::Result<()> {
+        self.file.write_all(row.to_csv_line().as_bytes())?;
+        self.file.flush()
+    }
+
+    /// Syncs the file to disk (call at the end of a run).
+    pub fn sync(&self) -> io::Result<()> {
+        self.file.sync_all()
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn header_then_rows() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("ts.csv");
+        let mut w = TimeSeriesWriter::create(&p).unwrap();
+        for step in [0, 10] {
+            w.append(&TimeSeriesRow {
+                step,
+                time: step as f64,
+                mass: 64.0 + 1e-13,
+                momentum: [0.1, -0.0, 1e-300],
+                max_mach: 0.01,
+                mlups: 1.5,
+            })
+            .unwrap();
+        }
+        w.sync().unwrap();
+        let text = std::fs::read_to_string(&p).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 3);
+        assert_eq!(lines[0], HEADER);
+        let cols: Vec<&str> = lines[2].split(',').collect();
+        assert_eq!(cols.len(), HEADER.split(',').count());
+        assert_eq!(cols[0], "10");
+        assert_eq!(cols[2].parse::<f64>().unwrap(), 64.0 + 1e-13);
+        assert_eq!(cols[5], "1e-300");
+        assert_eq!(cols[4], "-0");
+        assert_eq!(num(6.5e-6), "6.5e-6");
+        assert_eq!(num(512.0), "512");
+    }
+}
