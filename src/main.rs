@@ -3,6 +3,7 @@
 //! ```text
 //! slurry run CASE.toml --out DIR [--threads N] [--quiet]
 //! slurry check CASE.toml
+//! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! ```
 //!
 //! Exit status: 0 on success; 2 for bad input (case file, command line); 1 for numerical
@@ -36,6 +37,34 @@ enum Command {
     Run(RunArgs),
     /// Validate a case file and print what it describes.
     Check(CheckArgs),
+    /// Measure the fused kernel's throughput (MLUPS) on periodic boxes.
+    Bench(BenchArgs),
+}
+
+/// `slurry bench`.
+#[derive(Args, Debug)]
+struct BenchArgs {
+    /// Box sizes: `N` for N³ or `NXxNYxNZ`, comma separated.
+    #[arg(long, value_delimiter = ',', default_values_t = ["128".to_string(), "256x256x240".to_string()])]
+    sizes: Vec<String>,
+    /// Thread counts, comma separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [1usize, 2])]
+    threads: Vec<usize>,
+    /// Precisions, comma separated (`f32`, `f64`).
+    #[arg(long, value_delimiter = ',', default_values_t = ["f32".to_string(), "f64".to_string()])]
+    precisions: Vec<String>,
+    /// Collision models, comma separated (`bgk`, `trt`).
+    #[arg(long, value_delimiter = ',', default_values_t = ["bgk".to_string(), "trt".to_string()])]
+    collisions: Vec<String>,
+    /// Repetitions per configuration (the best and the median are reported).
+    #[arg(long, default_value_t = 5)]
+    reps: usize,
+    /// Approximate length of one repetition, seconds.
+    #[arg(long, default_value_t = 1.0)]
+    seconds: f64,
+    /// Write the results as a JSON array to this file (atomically).
+    #[arg(long, value_name = "FILE")]
+    json: Option<PathBuf>,
 }
 
 /// `slurry run`.
@@ -71,6 +100,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Check(a) => cmd_check(a),
+        Command::Bench(a) => cmd_bench(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -188,4 +218,73 @@ fn describe(c: &Case) -> String {
         c.run.mach_limit
     );
     s
+}
+
+fn parse_size(s: &str) -> anyhow::Result<slurry::lattice::Grid> {
+    let parts: Vec<&str> = s.split('x').collect();
+    let nums: Result<Vec<usize>, _> = parts.iter().map(|p| p.trim().parse::<usize>()).collect();
+    match nums.as_deref() {
+        Ok([n]) if *n >= 2 => Ok(slurry::lattice::Grid::new(*n, *n, *n)),
+        Ok([x, y, z]) if *x >= 2 && *y >= 2 && *z >= 2 => Ok(slurry::lattice::Grid::new(*x, *y, *z)),
+        _ => Err(BadInput(format!("--sizes: `{s}` is not N or NXxNYxNZ with every size >= 2")).into()),
+    }
+}
+
+fn cmd_bench(a: BenchArgs) -> anyhow::Result<()> {
+    use slurry::bench::{measure, BenchResult};
+    let grids = a.sizes.iter().map(|s| parse_size(s)).collect::<anyhow::Result<Vec<_>>>()?;
+    for p in &a.precisions {
+        if p != "f32" && p != "f64" {
+            return Err(BadInput(format!("--precisions: `{p}`; allowed: f32, f64")).into());
+        }
+    }
+    for c in &a.collisions {
+        if c != "bgk" && c != "trt" {
+            return Err(BadInput(format!("--collisions: `{c}`; allowed: bgk, trt")).into());
+        }
+    }
+    if a.threads.contains(&0) || a.reps == 0 || a.seconds.is_nan() || a.seconds <= 0.0 {
+        return Err(BadInput("--threads, --reps and --seconds must be positive".into()).into());
+    }
+    let mut results: Vec<BenchResult> = Vec::new();
+    println!(
+        "{:>13} {:>4} {:>4} {:>3} {:>9} {:>9} {:>7} {:>7}",
+        "grid", "prec", "coll", "thr", "MLUPS", "median", "GB/s", "isa"
+    );
+    for g in &grids {
+        for p in &a.precisions {
+            for c in &a.collisions {
+                for &t in &a.threads {
+                    let trt = c == "trt";
+                    let r = if p == "f32" {
+                        measure::<f32>(*g, trt, t, a.reps, a.seconds)
+                    } else {
+                        measure::<f64>(*g, trt, t, a.reps, a.seconds)
+                    };
+                    println!(
+                        "{:>13} {:>4} {:>4} {:>3} {:>9.1} {:>9.1} {:>7.1} {:>7}",
+                        format!("{}x{}x{}", g.nx, g.ny, g.nz),
+                        r.precision,
+                        r.collision,
+                        r.threads,
+                        r.mlups,
+                        r.mlups_median,
+                        r.gbs,
+                        r.isa
+                    );
+                    results.push(r);
+                }
+            }
+        }
+    }
+    if let Some(path) = a.json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        }
+        let text = serde_json::to_string_pretty(&results)?;
+        slurry::io::atomic_write_bytes(&path, text.as_bytes())
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
 }

@@ -21,12 +21,7 @@ fn obstacle(x: usize, y: usize, z: usize) -> bool {
     (3..5).contains(&x) && (2..4).contains(&y) && (1..3).contains(&z) || (x, y, z) == (9, 5, 4)
 }
 
-fn compare<T: Real + slurry::lbm::kernel::Planes>(
-    b: Boundaries,
-    params: FluidParams,
-    ff: bool,
-    obst: bool,
-) {
+fn compare<T: Real + slurry::lbm::kernel::Planes>(b: Boundaries, params: FluidParams, ff: bool, obst: bool) {
     // nx = 13 is not a multiple of any lane count: tails take the scalar path too.
     let g = Grid::new(13, 7, 6);
     for isa in Isa::available() {
@@ -80,28 +75,13 @@ fn compare<T: Real + slurry::lbm::kernel::Planes>(
 fn mixed() -> Boundaries {
     Boundaries::periodic()
         .with(Face::ZMin, FaceBoundary::NoSlip)
-        .with(
-            Face::ZMax,
-            FaceBoundary::MovingWall {
-                velocity: [0.05, -0.02, 0.0],
-            },
-        )
+        .with(Face::ZMax, FaceBoundary::MovingWall { velocity: [0.05, -0.02, 0.0] })
 }
 
 fn walls() -> Boundaries {
     Boundaries::closed_box()
-        .with(
-            Face::YMax,
-            FaceBoundary::MovingWall {
-                velocity: [0.03, 0.0, 0.01],
-            },
-        )
-        .with(
-            Face::XMin,
-            FaceBoundary::MovingWall {
-                velocity: [0.0, 0.02, 0.0],
-            },
-        )
+        .with(Face::YMax, FaceBoundary::MovingWall { velocity: [0.03, 0.0, 0.01] })
+        .with(Face::XMin, FaceBoundary::MovingWall { velocity: [0.0, 0.02, 0.0] })
 }
 
 #[test]
@@ -127,11 +107,6 @@ fn mixed_walls_obstacles_bgk_f64_and_f32() {
 
 #[test]
 fn closed_moving_walls_trt_f64_and_f32() {
-    compare::<f64>(
-        walls(),
-        FluidParams::trt(0.03).with_body_force([0.0, 1e-5, 0.0]),
-        true,
-        true,
-    );
+    compare::<f64>(walls(), FluidParams::trt(0.03).with_body_force([0.0, 1e-5, 0.0]), true, true);
     compare::<f32>(walls(), FluidParams::trt(0.03), true, false);
 }

@@ -60,9 +60,7 @@ pub const W: [f64; Q] = [
 ];
 
 /// Index of the opposite velocity: `C[OPP[i]] = -C[i]`.
-pub const OPP: [usize; Q] = [
-    0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15, 18, 17,
-];
+pub const OPP: [usize; Q] = [0, 2, 1, 4, 3, 6, 5, 8, 7, 10, 9, 12, 11, 14, 13, 16, 15, 18, 17];
 
 #[cfg(test)]
 mod tests {

@@ -36,11 +36,7 @@ impl Grid {
     /// Coordinates of the node with linear index `i`.
     #[inline]
     pub fn coords(&self, i: usize) -> [usize; 3] {
-        [
-            i % self.nx,
-            (i / self.nx) % self.ny,
-            i / (self.nx * self.ny),
-        ]
+        [i % self.nx, (i / self.nx) % self.ny, i / (self.nx * self.ny)]
     }
 
     /// Size along axis `a` (0 = x, 1 = y, 2 = z).
@@ -70,14 +66,7 @@ pub enum Face {
 
 impl Face {
     /// All faces, in the order used by [`crate::lbm::Boundaries`].
-    pub const ALL: [Face; 6] = [
-        Face::XMin,
-        Face::XMax,
-        Face::YMin,
-        Face::YMax,
-        Face::ZMin,
-        Face::ZMax,
-    ];
+    pub const ALL: [Face; 6] = [Face::XMin, Face::XMax, Face::YMin, Face::YMax, Face::ZMin, Face::ZMax];
 
     /// The axis normal to this face (0 = x, 1 = y, 2 = z).
     pub fn axis(self) -> usize {

@@ -62,16 +62,12 @@ pub struct Boundaries {
 impl Boundaries {
     /// Periodic in all directions.
     pub fn periodic() -> Self {
-        Self {
-            faces: [FaceBoundary::Periodic; 6],
-        }
+        Self { faces: [FaceBoundary::Periodic; 6] }
     }
 
     /// Closed box: no-slip walls on all six faces (the paper's tank).
     pub fn closed_box() -> Self {
-        Self {
-            faces: [FaceBoundary::NoSlip; 6],
-        }
+        Self { faces: [FaceBoundary::NoSlip; 6] }
     }
 
     /// The same boundaries with `face` set to `b`.
@@ -194,12 +190,8 @@ mod tests {
 
     #[test]
     fn wall_moving_through_itself_is_rejected() {
-        let b = Boundaries::closed_box().with(
-            Face::ZMax,
-            FaceBoundary::MovingWall {
-                velocity: [0.0, 0.0, 0.1],
-            },
-        );
+        let b =
+            Boundaries::closed_box().with(Face::ZMax, FaceBoundary::MovingWall { velocity: [0.0, 0.0, 0.1] });
         assert!(b.validate().is_err());
     }
 
@@ -210,17 +202,8 @@ mod tests {
             .with(Face::ZMin, FaceBoundary::NoSlip)
             .with(Face::ZMax, FaceBoundary::NoSlip);
         let none = |_: [usize; 3]| false;
-        assert_eq!(
-            resolve(&g, &b, &none, [0, 1, 0], [-1, 0, -1]),
-            LinkEnd::Wall([0.0; 3])
-        );
-        assert_eq!(
-            resolve(&g, &b, &none, [0, 1, 1], [-1, 0, -1]),
-            LinkEnd::Periodic([3, 1, 0])
-        );
-        assert_eq!(
-            resolve(&g, &b, &none, [1, 1, 1], [-1, 0, -1]),
-            LinkEnd::Interior([0, 1, 0])
-        );
+        assert_eq!(resolve(&g, &b, &none, [0, 1, 0], [-1, 0, -1]), LinkEnd::Wall([0.0; 3]));
+        assert_eq!(resolve(&g, &b, &none, [0, 1, 1], [-1, 0, -1]), LinkEnd::Periodic([3, 1, 0]));
+        assert_eq!(resolve(&g, &b, &none, [1, 1, 1], [-1, 0, -1]), LinkEnd::Interior([0, 1, 0]));
     }
 }

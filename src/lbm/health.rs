@@ -71,11 +71,7 @@ impl fmt::Display for Health {
             )?;
         }
         if self.is_ok() {
-            write!(
-                f,
-                "healthy (max Mach {:.4} at {:?})",
-                self.max_mach, self.max_mach_at
-            )?;
+            write!(f, "healthy (max Mach {:.4} at {:?})", self.max_mach, self.max_mach_at)?;
         }
         Ok(())
     }

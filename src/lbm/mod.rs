@@ -54,9 +54,7 @@ pub enum FluidError {
         force: [f64; 3],
     },
     /// Only one face of a pair is periodic.
-    #[error(
-        "periodic boundaries must come in pairs: axis {axis} has one periodic face and one wall"
-    )]
+    #[error("periodic boundaries must come in pairs: axis {axis} has one periodic face and one wall")]
     PeriodicPair {
         /// 0 = x, 1 = y, 2 = z.
         axis: usize,

@@ -39,22 +39,12 @@ pub struct FluidParams {
 impl FluidParams {
     /// BGK with viscosity `nu` and no body force.
     pub fn bgk(nu: f64) -> Self {
-        Self {
-            nu,
-            collision: Collision::Bgk,
-            body_force: [0.0; 3],
-        }
+        Self { nu, collision: Collision::Bgk, body_force: [0.0; 3] }
     }
 
     /// TRT with viscosity `nu`, magic parameter 3/16 and no body force.
     pub fn trt(nu: f64) -> Self {
-        Self {
-            nu,
-            collision: Collision::Trt {
-                magic: default_magic(),
-            },
-            body_force: [0.0; 3],
-        }
+        Self { nu, collision: Collision::Trt { magic: default_magic() }, body_force: [0.0; 3] }
     }
 
     /// The same parameters with body force `g`.
@@ -71,10 +61,7 @@ impl FluidParams {
     /// Checks ranges: `ν > 0` (so `τ > ½`), `Λ > 0`, finite body force.
     pub fn validate(&self) -> Result<(), FluidError> {
         if !(self.nu.is_finite() && self.nu > 0.0) {
-            return Err(FluidError::Viscosity {
-                nu: self.nu,
-                tau: self.tau(),
-            });
+            return Err(FluidError::Viscosity { nu: self.nu, tau: self.tau() });
         }
         if let Collision::Trt { magic } = self.collision {
             if !(magic.is_finite() && magic > 0.0) {
@@ -82,9 +69,7 @@ impl FluidParams {
             }
         }
         if self.body_force.iter().any(|g| !g.is_finite()) {
-            return Err(FluidError::BodyForce {
-                force: self.body_force,
-            });
+            return Err(FluidError::BodyForce { force: self.body_force });
         }
         Ok(())
     }

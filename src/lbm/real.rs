@@ -76,12 +76,7 @@ impl Real for f32 {
 
 /// Arithmetic on one value or on a bundle of lanes, element-wise.
 pub trait Lane:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
+    Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
 {
     /// The scalar type of each lane.
     type S: Real;

@@ -203,20 +203,14 @@ lanes!(
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn xor512d(a: __m512d, b: __m512d) -> __m512d {
-    _mm512_castsi512_pd(_mm512_xor_si512(
-        _mm512_castpd_si512(a),
-        _mm512_castpd_si512(b),
-    ))
+    _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(a), _mm512_castpd_si512(b)))
 }
 
 /// XOR of `f32` vectors with AVX-512F only.
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
 unsafe fn xor512s(a: __m512, b: __m512) -> __m512 {
-    _mm512_castsi512_ps(_mm512_xor_si512(
-        _mm512_castps_si512(a),
-        _mm512_castps_si512(b),
-    ))
+    _mm512_castsi512_ps(_mm512_xor_si512(_mm512_castps_si512(a), _mm512_castps_si512(b)))
 }
 
 /// Fused multiply-add for the SSE2 fallback, which has no FMA instruction: lane by lane with
@@ -233,7 +227,8 @@ mod sse {
                 let a = std::mem::transmute::<$reg, [$t; $n]>(a);
                 let b = std::mem::transmute::<$reg, [$t; $n]>(b);
                 let c = std::mem::transmute::<$reg, [$t; $n]>(c);
-                let r: [$t; $n] = std::array::from_fn(|l| a[l].mul_add(b[l], if $neg { -c[l] } else { c[l] }));
+                let r: [$t; $n] =
+                    std::array::from_fn(|l| a[l].mul_add(b[l], if $neg { -c[l] } else { c[l] }));
                 std::mem::transmute::<[$t; $n], $reg>(r)
             }
         };
@@ -243,4 +238,3 @@ mod sse {
     emulate!(fma_ps, __m128, f32, 4, false);
     emulate!(fms_ps, __m128, f32, 4, true);
 }
-

@@ -1,0 +1,163 @@
+//! Repository tasks, run as `cargo xtask <command>` (alias in `.cargo/config.toml`).
+//!
+//! Std only, and no dependency on `slurry`, so that it builds in seconds on a fresh machine
+//! (before the system libraries `slurry` links are even installed).
+//!
+//! - `setup`: installs the system packages the build needs (libhdf5-dev, pkg-config) if missing.
+//! - `ci`: the test command (`.ci/run`): setup, fmt, clippy, tests, verification (quick tier).
+//! - `verify [ARGS...]`: setup, then the verification suite (`slurry-verify ARGS...`).
+//! - `bench [--quick] [--no-peer] [ARGS...]`: kernel MLUPS beside the bandwidth ceiling and the
+//!   lbmpy peer (see `bench.rs`).
+
+mod bench;
+
+use std::env;
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+use std::time::Instant;
+
+const HELP: &str = "\
+usage: cargo xtask <command> [args]
+
+commands:
+  ci               setup, cargo fmt --check, clippy -D warnings, cargo test, verification (quick)
+  verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
+  setup            install libhdf5-dev and pkg-config with apt-get if missing
+  bench [--quick] [--no-peer] [ARGS]
+                   fused-kernel MLUPS beside membw.sh and the lbmpy peer; ARGS go to `slurry bench`
+";
+
+/// A failed step: what failed (`main` prints it and exits 1).
+struct Failed(String);
+
+type Step = Result<(), Failed>;
+
+fn main() -> ExitCode {
+    let mut args = env::args().skip(1);
+    let cmd = args.next();
+    let rest: Vec<String> = args.collect();
+    let root = workspace_root();
+    let t0 = Instant::now();
+    let result = match cmd.as_deref() {
+        Some("ci") => ci(&root),
+        Some("verify") => setup().and_then(|()| verify(&root, &rest)),
+        Some("setup") => setup(),
+        Some("bench") => setup().and_then(|()| bench::bench(&root, &rest).map_err(Failed)),
+        Some("help" | "--help" | "-h") | None => {
+            print!("{HELP}");
+            Ok(())
+        }
+        Some(other) => Err(Failed(format!("unknown command '{other}'\n{HELP}"))),
+    };
+    let secs = t0.elapsed().as_secs_f64();
+    match result {
+        Ok(()) => {
+            if cmd.as_deref() == Some("ci") {
+                println!("\nxtask ci: all steps passed in {secs:.0} s");
+            }
+            ExitCode::SUCCESS
+        }
+        Err(Failed(msg)) => {
+            eprintln!("\nxtask: {msg} (after {secs:.0} s)");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The workspace root: the parent of this crate's directory.
+fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).parent().expect("xtask/ has a parent directory").to_path_buf()
+}
+
+fn cargo() -> Command {
+    Command::new(env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+fn header(title: &str) {
+    println!("\n==> {title}");
+}
+
+/// Runs `cmd`, inheriting stdio; a non-zero exit or a failure to start is an error.
+fn run(what: &str, mut cmd: Command) -> Step {
+    let t = Instant::now();
+    let status = cmd.status().map_err(|e| Failed(format!("{what}: cannot start: {e}")))?;
+    if status.success() {
+        println!("--- {what}: ok ({:.0} s)", t.elapsed().as_secs_f64());
+        Ok(())
+    } else {
+        Err(Failed(format!("{what} failed ({status})")))
+    }
+}
+
+/// The test command: each step printed as a header; stops at the first failure.
+fn ci(root: &Path) -> Step {
+    header("setup: system packages");
+    setup()?;
+
+    header("cargo fmt --all -- --check");
+    let mut c = cargo();
+    c.current_dir(root).args(["fmt", "--all", "--", "--check"]);
+    run("fmt", c)?;
+
+    header("cargo clippy --workspace --all-targets --release -- -D warnings");
+    let mut c = cargo();
+    c.current_dir(root).args(["clippy", "--workspace", "--all-targets", "--release", "--", "-D", "warnings"]);
+    run("clippy", c)?;
+
+    header("cargo test --workspace --release");
+    let mut c = cargo();
+    c.current_dir(root).args(["test", "--workspace", "--release"]);
+    run("test", c)?;
+
+    header("verification, quick tier");
+    verify(root, &["--tier".into(), "quick".into()])
+}
+
+/// `slurry-verify ARGS` in release.
+fn verify(root: &Path, args: &[String]) -> Step {
+    let mut c = cargo();
+    c.current_dir(root)
+        .args(["run", "--release", "-p", "slurry-verification", "--bin", "slurry-verify", "--"])
+        .args(args);
+    run("verify", c)
+}
+
+/// Whether `pkg-config` is present and finds hdf5.
+fn hdf5_found() -> bool {
+    Command::new("pkg-config").args(["--exists", "hdf5"]).status().map(|s| s.success()).unwrap_or(false)
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+        .unwrap_or(false)
+}
+
+/// Installs libhdf5-dev and pkg-config with apt-get unless pkg-config already finds hdf5.
+fn setup() -> Step {
+    if hdf5_found() {
+        println!("hdf5 found by pkg-config: nothing to install");
+        return Ok(());
+    }
+    println!("installing libhdf5-dev and pkg-config with apt-get (needed by the hdf5 crate)");
+    let apt = |args: &[&str]| {
+        let mut c = if is_root() {
+            Command::new("apt-get")
+        } else {
+            let mut c = Command::new("sudo");
+            c.arg("apt-get");
+            c
+        };
+        c.env("DEBIAN_FRONTEND", "noninteractive").args(args);
+        c
+    };
+    run("apt-get update", apt(&["update"]))?;
+    run("apt-get install", apt(&["install", "-y", "libhdf5-dev", "pkg-config"]))?;
+    if hdf5_found() {
+        Ok(())
+    } else {
+        Err(Failed("after installing libhdf5-dev, `pkg-config --exists hdf5` still fails".into()))
+    }
+}
