@@ -163,12 +163,12 @@ pub fn collide<V: Lane, P: Pops<V>, const TRT: bool>(h: &mut P, force: [V; 3], r
     let rho = one + drho;
     let inv_rho = one / rho;
     let u = [
-        (jx + half * force[0]) * inv_rho,
-        (jy + half * force[1]) * inv_rho,
-        (jz + half * force[2]) * inv_rho,
+        half.fma(force[0], jx) * inv_rho,
+        half.fma(force[1], jy) * inv_rho,
+        half.fma(force[2], jz) * inv_rho,
     ];
-    let usq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
-    let uf = u[0] * force[0] + u[1] * force[1] + u[2] * force[2];
+    let usq = u[0].fma(u[0], u[1].fma(u[1], u[2] * u[2]));
+    let uf = u[0].fma(force[0], u[1].fma(force[1], u[2] * force[2]));
 
     // Per-node coefficients (see the doc above); constants folded in f64, rounded once.
     let g = c(op).fms(c(-1.5).fma(rho * usq, drho), c(3.0 * sp) * uf);
