@@ -1,7 +1,7 @@
 //! The `slurry` command line.
 //!
 //! ```text
-//! slurry run CASE.toml --out DIR [--threads N] [--quiet]
+//! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume]
 //! slurry check CASE.toml
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! ```
@@ -81,6 +81,10 @@ struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+    /// Continue from DIR/checkpoint.h5 (written with `run.checkpoint_every`), bitwise
+    /// identically to an uninterrupted run; `run.steps` may be raised to extend a run.
+    #[arg(long)]
+    resume: bool,
 }
 
 /// `slurry check`.
@@ -106,7 +110,10 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<CaseError>().is_some() || e.downcast_ref::<BadInput>().is_some() {
+            if e.downcast_ref::<CaseError>().is_some()
+                || e.downcast_ref::<BadInput>().is_some()
+                || e.downcast_ref::<slurry::run::BadResume>().is_some()
+            {
                 ExitCode::from(EXIT_BAD_INPUT)
             } else {
                 ExitCode::from(EXIT_FAILURE)
@@ -131,7 +138,7 @@ fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
     }
     let pool =
         builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
-    let opts = RunOptions { quiet: a.quiet };
+    let opts = RunOptions { quiet: a.quiet, resume: a.resume };
     let summary = pool
         .install(|| run_case(&case, &a.out, opts))
         .with_context(|| format!("run of {} failed", a.case.display()))?;

@@ -6,6 +6,10 @@
 //! between output points: the stepping loop does no I/O. At the end it writes `fields.h5`
 //! with `fields.xmf` beside it, the normalised case as `case.toml`, and `summary.json`.
 //!
+//! With `run.checkpoint_every`, the complete fluid state is written to `checkpoint.h5`
+//! (atomically, after a health check) every that many steps; `--resume` restores it after a
+//! kill at any moment and continues bitwise identically.
+//!
 //! Numerical trouble (non-finite populations, non-positive density, Mach number above
 //! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
 //! the time series up to the last healthy output is kept.
@@ -19,7 +23,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, Precision};
-use crate::io::{atomic_write_bytes, write_fields_h5, write_xdmf, TimeSeriesRow, TimeSeriesWriter};
+use crate::io::{
+    atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, TimeSeriesRow,
+    TimeSeriesWriter,
+};
 use crate::lattice::Grid;
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Health, Real};
@@ -36,6 +43,8 @@ pub mod files {
     pub const SUMMARY: &str = "summary.json";
     /// The case as run (normalised TOML).
     pub const CASE: &str = "case.toml";
+    /// The latest checkpoint (see [`crate::io::checkpoint`]).
+    pub const CHECKPOINT: &str = "checkpoint.h5";
 }
 
 /// Options that do not change the physics.
@@ -43,6 +52,9 @@ pub mod files {
 pub struct RunOptions {
     /// No progress bar (it is also hidden when stderr is not a terminal).
     pub quiet: bool,
+    /// Continue from `checkpoint.h5` in the output directory (bitwise identical to a run that
+    /// was never interrupted); the time series is cut back to the checkpoint's step.
+    pub resume: bool,
 }
 
 /// What a finished run reports (also written as `summary.json`).
@@ -92,6 +104,11 @@ pub struct NumericalError {
     pub timeseries: PathBuf,
 }
 
+/// A resume that cannot proceed because the checkpoint belongs to another case.
+#[derive(Clone, Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadResume(pub String);
+
 /// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
 /// run there are replaced). Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
@@ -119,7 +136,11 @@ fn progress_bar(steps: u64, quiet: bool) -> ProgressBar {
     pb
 }
 
-fn run_typed<T: Real + Planes>(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
+fn run_typed<T: Real + Planes + hdf5::H5Type>(
+    case: &Case,
+    out_dir: &Path,
+    opts: RunOptions,
+) -> anyhow::Result<RunSummary> {
     let start = Instant::now();
     let grid = case.grid();
     let nodes = grid.nodes() as f64;
@@ -132,47 +153,82 @@ fn run_typed<T: Real + Planes>(case: &Case, out_dir: &Path, opts: RunOptions) ->
     atomic_write_bytes(&case_path, case_text.as_bytes())
         .with_context(|| format!("cannot write {}", case_path.display()))?;
     let ts_path = out_dir.join(files::TIMESERIES);
-    let mut ts =
-        TimeSeriesWriter::create(&ts_path).with_context(|| format!("cannot write {}", ts_path.display()))?;
+    let ck_path = out_dir.join(files::CHECKPOINT);
+    let fingerprint = case.fingerprint();
+    let mut ts = if opts.resume {
+        let ck = read_checkpoint::<T>(&ck_path)
+            .with_context(|| format!("cannot resume: no readable checkpoint {}", ck_path.display()))?;
+        if ck.case != fingerprint {
+            return Err(BadResume(format!(
+                "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
+                ck_path.display()
+            ))
+            .into());
+        }
+        fluid.restore(&ck.state).context("cannot restore the checkpoint")?;
+        TimeSeriesWriter::resume(&ts_path, fluid.time())
+            .with_context(|| format!("cannot resume {}", ts_path.display()))?
+    } else {
+        TimeSeriesWriter::create(&ts_path).with_context(|| format!("cannot write {}", ts_path.display()))?
+    };
 
     let limit = case.run.mach_limit;
     let total = case.run.steps;
     let every = case.run.output_every;
+    let ck_every = case.run.checkpoint_every;
     let pb = progress_bar(total, opts.quiet);
+    pb.set_position(fluid.time());
     let mut step_time = Duration::ZERO;
     let mut max_mach: f64 = 0.0;
     let mut rows = 0u64;
-    let mut last_good = 0u64;
+    let mut last_good = fluid.time();
     let mut initial_mass = f64::NAN;
     let mut block_mlups = 0.0;
+    let resumed_at = opts.resume.then(|| fluid.time());
 
     loop {
         let step = fluid.time();
-        let health = fluid.health(limit);
-        if !health.is_ok() {
-            pb.abandon();
-            return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
+        let output_due = step.is_multiple_of(every) || step == total;
+        let checkpoint_due = ck_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
+        if output_due || checkpoint_due {
+            let health = fluid.health(limit);
+            if !health.is_ok() {
+                pb.abandon();
+                return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
+            }
+            last_good = step;
+            max_mach = max_mach.max(health.max_mach);
+            if step == 0 || (resumed_at == Some(step) && initial_mass.is_nan()) {
+                initial_mass = fluid.total_mass();
+            }
+            // The row of the step a resume starts from is already in the time series.
+            if output_due && resumed_at != Some(step) {
+                ts.append(&TimeSeriesRow {
+                    step,
+                    time: step as f64,
+                    mass: fluid.total_mass(),
+                    momentum: fluid.total_momentum(),
+                    max_mach: health.max_mach,
+                    mlups: block_mlups,
+                })
+                .with_context(|| format!("cannot write {}", ts_path.display()))?;
+                rows += 1;
+            }
+            if checkpoint_due && resumed_at != Some(step) {
+                let state = fluid.snapshot().context("checkpoint at an odd step")?;
+                write_checkpoint(&ck_path, &state, &fingerprint)
+                    .with_context(|| format!("cannot write {}", ck_path.display()))?;
+            }
         }
-        last_good = step;
-        max_mach = max_mach.max(health.max_mach);
-        let mass = fluid.total_mass();
-        if step == 0 {
-            initial_mass = mass;
-        }
-        ts.append(&TimeSeriesRow {
-            step,
-            time: step as f64,
-            mass,
-            momentum: fluid.total_momentum(),
-            max_mach: health.max_mach,
-            mlups: block_mlups,
-        })
-        .with_context(|| format!("cannot write {}", ts_path.display()))?;
-        rows += 1;
         if step >= total {
             break;
         }
-        let block = every.min(total - step);
+        // Advance to the next output or checkpoint point.
+        let mut next = (step / every + 1) * every;
+        if let Some(c) = ck_every {
+            next = next.min((step / c + 1) * c);
+        }
+        let block = next.min(total) - step;
         let t0 = Instant::now();
         fluid.run(block);
         let dt = t0.elapsed();

@@ -257,6 +257,10 @@ pub struct RunSection {
     /// Stop when the Mach number `|u|/c_s` anywhere exceeds this (0 < … ≤ 1; default 0.3).
     #[serde(default = "default_mach_limit")]
     pub mach_limit: f64,
+    /// Write `checkpoint.h5` every this many steps (even, 2 ≤ … ≤ steps; default: none).
+    /// `slurry run --resume` continues from it bitwise identically.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checkpoint_every: Option<u64>,
 }
 
 /// The default Mach limit, 0.3.
@@ -550,6 +554,19 @@ impl Case {
                 format!("must be an integer with 1 <= output_every <= run.steps = {}", r.steps),
             ));
         }
+        if let Some(c) = r.checkpoint_every {
+            if c < 2 || !c.is_multiple_of(2) || c > r.steps {
+                return Err(invalid(
+                    "run.checkpoint_every",
+                    c,
+                    format!(
+                        "must be an even integer with 2 <= checkpoint_every <= run.steps = {} \
+                         (the solver's state is complete only after an even number of steps)",
+                        r.steps
+                    ),
+                ));
+            }
+        }
         if !(r.mach_limit.is_finite() && r.mach_limit > 0.0 && r.mach_limit <= 1.0) {
             return Err(invalid(
                 "run.mach_limit",
@@ -784,6 +801,16 @@ impl Case {
                 _ => None,
             })
             .fold(0.0, f64::max)
+    }
+
+    /// The case's identity for checkpoints: its normalised TOML with `run.steps` and
+    /// `run.checkpoint_every` left out, so that a resumed run may be extended or checkpoint at
+    /// another cadence, but not change anything that alters the physics or the output cadence.
+    pub fn fingerprint(&self) -> String {
+        let mut c = self.clone();
+        c.run.steps = 0;
+        c.run.checkpoint_every = None;
+        toml::to_string(&c).unwrap_or_default()
     }
 
     /// Number of time-series rows a run writes: step 0, every `output_every` steps, and the

@@ -308,3 +308,17 @@ fn every_error_is_one_line() {
         assert!(!m.trim_end().contains('\n'), "{m}");
     }
 }
+
+#[test]
+fn checkpoint_every_must_be_even_and_within_steps() {
+    for bad in ["checkpoint_every = 3", "checkpoint_every = 0", "checkpoint_every = 200"] {
+        assert_err(&edit("[run]", bad), "run.checkpoint_every", &["even", "<= run.steps = 100"]);
+    }
+    let ok = Case::parse(&edit("[run]", "checkpoint_every = 20"), "t.toml").unwrap();
+    assert_eq!(ok.run.checkpoint_every, Some(20));
+    // The fingerprint ignores the run length and the checkpoint cadence, nothing else.
+    let longer = Case::parse(&edit("steps = 100", "steps = 500"), "t.toml").unwrap();
+    assert_eq!(ok.fingerprint(), longer.fingerprint());
+    let other = Case::parse(&edit("nu = 0.1", "nu = 0.2"), "t.toml").unwrap();
+    assert_ne!(ok.fingerprint(), other.fingerprint());
+}

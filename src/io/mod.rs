@@ -9,14 +9,17 @@
 //! - [`atomic`]: [`atomic_write`], [`atomic_write_bytes`];
 //! - [`fields`]: [`write_fields_h5`] (`/density`, `/velocity`, shaped z-slowest);
 //! - [`xdmf`]: [`write_xdmf`] (XDMF 3 for ParaView, referencing the HDF5 datasets);
-//! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`].
+//! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`];
+//! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart).
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod fields;
 pub mod timeseries;
 pub mod xdmf;
 
 pub use atomic::{atomic_write, atomic_write_bytes};
+pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use fields::{write_fields_h5, FieldsError};
 pub use timeseries::{TimeSeriesRow, TimeSeriesWriter};
 pub use xdmf::{write_xdmf, xdmf_text};

@@ -75,6 +75,30 @@ impl TimeSeriesWriter {
         Ok(Self { path: path.to_path_buf(), file })
     }
 
+    /// Re-opens an existing time series for a resumed run: keeps the header and the complete
+    /// rows with `step <= through_step` (later rows belong to work lost after the checkpoint),
+    /// rewrites the file atomically and opens it for appending.
+    pub fn resume(path: &Path, through_step: u64) -> io::Result<Self> {
+        let old = std::fs::read_to_string(path)?;
+        let mut lines = old.split_inclusive('\n');
+        if lines.next().map(str::trim_end) != Some(HEADER) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("{}: not a slurry time series (unexpected header)", path.display()),
+            ));
+        }
+        let mut kept = format!("{HEADER}\n");
+        for line in lines.filter(|l| l.ends_with('\n')) {
+            match line.split(',').next().and_then(|s| s.parse::<u64>().ok()) {
+                Some(step) if step <= through_step => kept.push_str(line),
+                _ => {}
+            }
+        }
+        atomic_write_bytes(path, kept.as_bytes())?;
+        let file = OpenOptions::new().append(true).open(path)?;
+        Ok(Self { path: path.to_path_buf(), file })
+    }
+
     /// Appends one row as a single write and flushes it.
     pub fn append(&mut self, row: &TimeSeriesRow) -> io::Result<()> {
         self.file.write_all(row.to_csv_line().as_bytes())?;

@@ -34,6 +34,22 @@ struct Link<T> {
     term: T,
 }
 
+/// The complete state of a [`Fluid`] at an even time step, for checkpoints. At even time the
+/// AA array is in the standard layout and the ghost slots carry nothing (the next even sweep's
+/// `pre` links refill them), so the interior populations, the force field and the time define
+/// the future exactly: restoring gives a bitwise identical continuation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FluidState<T> {
+    /// Time step (even).
+    pub time: u64,
+    /// The grid the state belongs to.
+    pub grid: Grid,
+    /// Shifted populations, `q`-major then interior index: `populations[q·N + n]`.
+    pub populations: Vec<T>,
+    /// Force density field, `a`-major (`force[a·N + n]`), if the field is on.
+    pub force: Option<Vec<T>>,
+}
+
 /// The D3Q19 lattice-Boltzmann fluid on a box, with storage precision `T` (`f32` or `f64`).
 pub struct Fluid<T: Real + Planes> {
     grid: Grid,
@@ -331,6 +347,72 @@ impl<T: Real + Planes> Fluid<T> {
             let field = if self.force_on { self.force[a * self.stride + p] } else { T::ZERO };
             (field + self.body[a]).to_f64()
         })
+    }
+
+    /// The state for a checkpoint. Only at even time (see [`FluidState`]).
+    pub fn snapshot(&self) -> Result<FluidState<T>, FluidError> {
+        if !self.time.is_multiple_of(2) {
+            return Err(FluidError::OddTime { time: self.time });
+        }
+        let g = self.grid;
+        let n = g.nodes();
+        let gather = |src: &[T], arrays: usize| {
+            let mut out = vec![T::ZERO; arrays * n];
+            for a in 0..arrays {
+                for z in 0..g.nz {
+                    for y in 0..g.ny {
+                        let from = a * self.stride + self.pidx(0, y, z);
+                        let to = a * n + g.index(0, y, z);
+                        out[to..to + g.nx].copy_from_slice(&src[from..from + g.nx]);
+                    }
+                }
+            }
+            out
+        };
+        Ok(FluidState {
+            time: self.time,
+            grid: g,
+            populations: gather(&self.f, Q),
+            force: self.force_on.then(|| gather(&self.force, 3)),
+        })
+    }
+
+    /// Restores a state taken by [`Fluid::snapshot`] on a fluid with the same grid (and the
+    /// same parameters, boundaries and obstacles: the caller's responsibility).
+    pub fn restore(&mut self, s: &FluidState<T>) -> Result<(), FluidError> {
+        let g = self.grid;
+        let n = g.nodes();
+        if s.grid != g || s.populations.len() != Q * n || s.force.as_ref().is_some_and(|f| f.len() != 3 * n) {
+            return Err(FluidError::StateMismatch { grid: s.grid, expected: g });
+        }
+        if !s.time.is_multiple_of(2) {
+            return Err(FluidError::OddTime { time: s.time });
+        }
+        let scatter = |dst: &mut [T], src: &[T], arrays: usize, stride: usize, px: usize, py: usize| {
+            for a in 0..arrays {
+                for z in 0..g.nz {
+                    for y in 0..g.ny {
+                        let to = a * stride + 1 + px * ((y + 1) + py * (z + 1));
+                        let from = a * n + g.index(0, y, z);
+                        dst[to..to + g.nx].copy_from_slice(&src[from..from + g.nx]);
+                    }
+                }
+            }
+        };
+        let (stride, px, py) = (self.stride, self.px, self.py);
+        scatter(&mut self.f, &s.populations, Q, stride, px, py);
+        match &s.force {
+            Some(fv) => {
+                self.enable_force_field();
+                scatter(&mut self.force, fv, 3, stride, px, py);
+            }
+            None => {
+                self.force.clear();
+                self.force_on = false;
+            }
+        }
+        self.time = s.time;
+        Ok(())
     }
 
     /// Advances one time step (one AA half-cycle; see the module docs).

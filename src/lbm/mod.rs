@@ -21,7 +21,7 @@ pub mod reference;
 pub mod simd;
 
 pub use boundary::{Boundaries, FaceBoundary};
-pub use fluid::{equilibrium, Fluid};
+pub use fluid::{equilibrium, Fluid, FluidState};
 pub use health::Health;
 pub use kernel::Isa;
 pub use params::{Collision, FluidParams};
@@ -72,6 +72,14 @@ pub enum FluidError {
     OddTime {
         /// The current time step.
         time: u64,
+    },
+    /// A state that does not fit this fluid.
+    #[error("state for grid {grid:?} does not fit this fluid's grid {expected:?}")]
+    StateMismatch {
+        /// The state's grid.
+        grid: Grid,
+        /// This fluid's grid.
+        expected: Grid,
     },
     /// Empty or too large grid.
     #[error("grid {grid:?}: each size must be >= 1 and the padded grid below 2^32 nodes")]

@@ -1,0 +1,127 @@
+//! Checkpoints and `slurry run --resume`: a run killed with SIGKILL at an arbitrary moment and
+//! resumed gives bitwise the same fields, checkpoint and time series (physics columns) as a
+//! run that was never interrupted; a checkpoint of another case is refused.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+
+fn case(steps: u64, nu: f64) -> String {
+    format!(
+        r#"
+[domain]
+nx = 48
+ny = 48
+nz = 24
+
+[fluid]
+precision = "f32"
+nu = {nu}
+collision = "trt"
+body_force = [1e-6, 0.0, 0.0]
+
+[boundaries]
+x_min = "periodic"
+x_max = "periodic"
+y_min = "periodic"
+y_max = "periodic"
+z_min = "no_slip"
+z_max = {{ moving_wall = [0.05, 0.0, 0.0] }}
+
+[run]
+steps = {steps}
+output_every = 100
+checkpoint_every = 200
+"#
+    )
+}
+
+fn write_case(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn run(case: &Path, out: &Path, resume: bool) -> std::process::Output {
+    let mut c = Command::new(BIN);
+    c.args(["run"]).arg(case).arg("--out").arg(out).arg("--quiet");
+    if resume {
+        c.arg("--resume");
+    }
+    c.output().unwrap()
+}
+
+fn read(path: &Path, name: &str) -> Vec<f64> {
+    hdf5::File::open(path).unwrap().dataset(name).unwrap().read_raw::<f64>().unwrap()
+}
+
+fn read_f32(path: &Path, name: &str) -> Vec<f32> {
+    hdf5::File::open(path).unwrap().dataset(name).unwrap().read_raw::<f32>().unwrap()
+}
+
+/// The time series without its timing column (`mlups`, the last one).
+fn physics_rows(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a).to_string())
+        .collect()
+}
+
+#[test]
+fn killed_and_resumed_equals_uninterrupted() {
+    let tmp = tempfile::tempdir().unwrap();
+    let steps = 2000;
+    let c = write_case(tmp.path(), "c.toml", &case(steps, 0.05));
+    let a = tmp.path().join("a");
+    let b = tmp.path().join("b");
+    let out = run(&c, &a, false);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+
+    // Start the same run, kill it (SIGKILL) as soon as its first checkpoint exists.
+    let mut child =
+        Command::new(BIN).args(["run"]).arg(&c).arg("--out").arg(&b).arg("--quiet").spawn().unwrap();
+    let t0 = Instant::now();
+    while !b.join("checkpoint.h5").exists() && t0.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(b.join("checkpoint.h5").exists(), "no checkpoint appeared");
+
+    let out = run(&c, &b, true);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["density", "velocity"] {
+        let (x, y) = (read(&a.join("fields.h5"), name), read(&b.join("fields.h5"), name));
+        assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "{name} differs");
+    }
+    assert_eq!(
+        read_f32(&a.join("checkpoint.h5"), "populations"),
+        read_f32(&b.join("checkpoint.h5"), "populations")
+    );
+    assert_eq!(physics_rows(&a.join("timeseries.csv")), physics_rows(&b.join("timeseries.csv")));
+    // Header, step 0, and every 100 steps.
+    assert_eq!(physics_rows(&a.join("timeseries.csv")).len() as u64, 2 + steps / 100);
+}
+
+#[test]
+fn resume_extends_a_run_and_refuses_another_case() {
+    let tmp = tempfile::tempdir().unwrap();
+    let short = write_case(tmp.path(), "short.toml", &case(400, 0.05));
+    let long = write_case(tmp.path(), "long.toml", &case(800, 0.05));
+    let other = write_case(tmp.path(), "other.toml", &case(800, 0.06));
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    assert!(run(&long, &a, false).status.success());
+    assert!(run(&short, &b, false).status.success());
+    let refused = run(&other, &b, true);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("different case"));
+    assert!(run(&long, &b, true).status.success());
+    assert_eq!(read(&a.join("fields.h5"), "velocity"), read(&b.join("fields.h5"), "velocity"));
+
+    let none = run(&long, &tmp.path().join("empty"), true);
+    assert!(!none.status.success());
+    assert!(String::from_utf8_lossy(&none.stderr).contains("checkpoint"));
+}
