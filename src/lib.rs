@@ -10,6 +10,10 @@
 //! Module map (see `ARCHITECTURE.md`):
 //! - [`lattice`]: the velocity set and the grid;
 //! - [`lbm`]: the fluid solver (knows nothing of particles);
+//! - [`rigid`]: rigid bodies, shapes and surface markers, quaternion integration (knows
+//!   nothing of the fluid);
+//! - [`ibm`]: immersed-boundary transfer: delta kernels, marker stencils, interpolation and
+//!   spreading as an adjoint pair (knows nothing of the fluid solver);
 //! - [`case`]: case files (TOML) and their validation;
 //! - [`io`]: HDF5/XDMF fields, CSV time series, atomic writes;
 //! - [`run`]: driving a case from start to output.
@@ -17,7 +21,9 @@
 
 pub mod bench;
 pub mod case;
+pub mod ibm;
 pub mod io;
 pub mod lattice;
 pub mod lbm;
+pub mod rigid;
 pub mod run;

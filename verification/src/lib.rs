@@ -18,7 +18,12 @@
 //! - [`cases::couette`]: steady (exact) and impulsively started (second order) shear flow;
 //! - [`cases::taylor_green`]: decaying vortex array, viscosity from the decay rate, second order;
 //! - [`cases::fused_vs_reference`]: the fused AA kernel equals the two-lattice oracle bitwise;
-//! - [`cases::mass_conservation`]: mass (and momentum) conserved to round-off.
+//! - [`cases::mass_conservation`]: mass (and momentum) conserved to round-off;
+//! - [`cases::ibm_transfer`]: IBM kernels' moment conditions, interpolation/spreading adjoint,
+//!   spreading bitwise identical for any thread count; cost per marker;
+//! - [`cases::quaternion_norm`]: rigid-body quaternion norm drift over 10⁶ torque-free steps;
+//! - [`cases::torque_free`]: torque-free tops: energy and angular momentum to second order,
+//!   Dzhanibekov flip near the intermediate axis only, free precession against the exact solution.
 
 pub mod cases;
 pub mod fit;

@@ -2,9 +2,12 @@
 
 pub mod couette;
 pub mod fused_vs_reference;
+pub mod ibm_transfer;
 pub mod mass_conservation;
 pub mod poiseuille;
+pub mod quaternion_norm;
 pub mod taylor_green;
+pub mod torque_free;
 
 use slurry::lattice::{Face, Grid};
 use slurry::lbm::kernel::Planes;
@@ -39,6 +42,21 @@ pub fn all() -> Vec<Case> {
             name: "mass_conservation",
             summary: "mass (and momentum) conserved to round-off: periodic and lid-driven boxes",
             run: mass_conservation::run,
+        },
+        Case {
+            name: "ibm_transfer",
+            summary: "IBM kernels: partition of unity, first moments, <Iu,F> = <u,SF>, bitwise spreading",
+            run: ibm_transfer::run,
+        },
+        Case {
+            name: "quaternion_norm",
+            summary: "rigid-body quaternion norm drift over 1e6 torque-free steps <= 1e-12",
+            run: quaternion_norm::run,
+        },
+        Case {
+            name: "torque_free",
+            summary: "torque-free top: energy/angular momentum second order, Dzhanibekov flip, precession",
+            run: torque_free::run,
         },
     ]
 }

@@ -1,0 +1,468 @@
+//! The stencil of each marker: the nodes within the kernel's support and their weights,
+//! computed once per marker per step into reusable buffers, and the z-slab schedule that makes
+//! spreading parallel and deterministic ([`super::transfer`]).
+//!
+//! # Geometry
+//! Node `(i, j, k)` of the [`Grid`] sits at world position `(i, j, k)` (lattice units). A marker
+//! at `X` gets, per axis, the `W = kernel.width()` consecutive nodes
+//! `j = ⌊X − h⌋ + 1, …, ⌊X − h⌋ + W` (`h = kernel.support()`; every node with `|X − j| < h` is
+//! among them) with 1-D weights `φ(X − j)`. The 3-D weight of node `(i, j, k)` is the product
+//! `δ = (φ_z · φ_y) · φ_x`, always evaluated in this order, so interpolation and spreading use
+//! bit-identical weights.
+//!
+//! Storage is the tensor-product form, struct of arrays over markers: per marker and axis the
+//! (up to 4) node coordinates, their 1-D weights and their count — about 155 bytes per marker
+//! with the slab keys, instead of 64 × 12 for the expanded 3-D list. [`Stencils::build`] refills the buffers in place; once
+//! their capacities cover the marker count (and the grid's slab count) it allocates nothing.
+//!
+//! # Periodic axes
+//! Node coordinates wrap modulo `n`; the marker may sit anywhere (its position is not wrapped,
+//! only its nodes). On an axis shorter than the stencil (e.g. a 1-node periodic axis) several
+//! stencil points land on the same node and their weights add up: still a partition of unity.
+//!
+//! # Walled axes: dropped nodes, renormalised weights
+//! With half-way bounce-back the box spans `[−½, n − ½]` on a walled axis; a marker must lie in
+//! it ([`StencilError::OutsideBox`] otherwise: no silent clamping). Stencil points outside
+//! `[0, n)` are dropped, and if the dropped 1-D weights were non-zero the kept ones are divided
+//! by their sum. Because `δ` is a product, renormalising each axis renormalises the 3-D weights:
+//! after it `Σ δ = 1` again (to round-off), so
+//! - a uniform velocity still interpolates exactly (the direct-forcing estimate is not damped
+//!   next to a wall), and
+//! - spreading still conserves the total force: the fluid receives exactly minus what the
+//!   markers' bodies receive (Newton's third law between fluid and particles). Without the
+//!   renormalisation the dropped fraction — up to 1/6 per axis for [`DeltaKernel::Roma3`] at
+//!   `X = 0` — would vanish into the wall.
+//!
+//! The cost: next to a wall the first moment is no longer zero (interpolation is first- rather
+//! than second-order accurate there, and the spread force's centroid moves up to a fraction of
+//! a spacing away from the wall). Adjointness is unaffected: it needs only that interpolation
+//! and spreading use the same weights, whatever they are, and both read them from here.
+
+use rayon::prelude::*;
+
+use super::kernel::{DeltaKernel, MAX_WIDTH};
+use crate::lattice::Grid;
+
+/// A marker that cannot be given a stencil.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StencilError {
+    /// A coordinate is NaN or infinite.
+    #[error("marker {marker}: position {position:?} is not finite")]
+    NonFinite {
+        /// Index of the marker.
+        marker: usize,
+        /// Its position.
+        position: [f64; 3],
+    },
+    /// On a walled axis, the marker lies outside the box `[−½, n − ½]`.
+    #[error(
+        "marker {marker}: position {position:?} lies outside the box on walled axis {axis} \
+         (allowed: -0.5 <= x <= {max})"
+    )]
+    OutsideBox {
+        /// Index of the marker.
+        marker: usize,
+        /// Its position.
+        position: [f64; 3],
+        /// 0 = x, 1 = y, 2 = z.
+        axis: usize,
+        /// The upper end of the box on that axis, `n − ½`.
+        max: f64,
+    },
+}
+
+/// Node coordinates of one marker's stencil: `[axis][point]`.
+type Nodes = [[u32; MAX_WIDTH]; 3];
+/// 1-D weights of one marker's stencil: `[axis][point]`.
+type Weights = [[f64; MAX_WIDTH]; 3];
+
+/// The stencils of a set of markers (nodes and weights), and the slab schedule for spreading.
+///
+/// Reused across steps: [`Stencils::build`] overwrites everything, allocation-free once the
+/// buffers are large enough.
+#[derive(Clone, Debug)]
+pub struct Stencils {
+    kernel: DeltaKernel,
+    grid: Grid,
+    periodic: [bool; 3],
+    /// Per marker: node coordinate per axis and point (only the first `len[a]` are used).
+    node: Vec<Nodes>,
+    /// Per marker: 1-D weight per axis and point.
+    weight: Vec<Weights>,
+    /// Per marker: number of points per axis.
+    len: Vec<[u8; 3]>,
+    /// Per marker: its z-slab (filled by `build`, consumed by the counting sort).
+    slab: Vec<u32>,
+    /// z-planes per slab (the last slab is thicker): `kernel.width()`.
+    slab_thickness: usize,
+    /// Number of slabs; 1 means spreading runs serially.
+    slabs: usize,
+    /// `order[slab_start[s]..slab_start[s + 1]]` are the markers of slab `s`, in input order.
+    slab_start: Vec<u32>,
+    /// Marker indices grouped by slab.
+    order: Vec<u32>,
+}
+
+/// Fewest slabs for which spreading runs in parallel (each phase then has ≥ 2 slabs).
+pub const MIN_PARALLEL_SLABS: usize = 4;
+
+impl Stencils {
+    /// Empty stencils for the given kernel (no markers, a 0-node grid).
+    pub fn new(kernel: DeltaKernel) -> Self {
+        Self {
+            kernel,
+            grid: Grid::new(0, 0, 0),
+            periodic: [true; 3],
+            node: Vec::new(),
+            weight: Vec::new(),
+            len: Vec::new(),
+            slab: Vec::new(),
+            slab_thickness: kernel.width(),
+            slabs: 1,
+            slab_start: Vec::new(),
+            order: Vec::new(),
+        }
+    }
+
+    /// The kernel.
+    pub fn kernel(&self) -> DeltaKernel {
+        self.kernel
+    }
+
+    /// The grid of the last [`Stencils::build`].
+    pub fn grid(&self) -> Grid {
+        self.grid
+    }
+
+    /// Periodicity per axis of the last [`Stencils::build`].
+    pub fn periodic(&self) -> [bool; 3] {
+        self.periodic
+    }
+
+    /// Number of markers.
+    pub fn len(&self) -> usize {
+        self.node.len()
+    }
+
+    /// Whether there are no markers.
+    pub fn is_empty(&self) -> bool {
+        self.node.is_empty()
+    }
+
+    /// Number of z-slabs of the spreading schedule (1: spreading runs serially; see
+    /// [`super::transfer`]).
+    pub fn slabs(&self) -> usize {
+        self.slabs
+    }
+
+    /// Computes the stencil of every marker at `positions` (world coordinates, lattice units) on
+    /// `grid`, with `periodic[a]` telling whether axis `a` is periodic (otherwise it is walled:
+    /// half-way bounce-back, box `[−½, n − ½]`). Parallel over markers.
+    ///
+    /// Writes all buffers; allocates only while they grow. On error the stencils are left
+    /// empty (no marker), so a stale set can never be used by mistake.
+    ///
+    /// # Errors
+    /// A non-finite position, or a position outside the box on a walled axis (the first such
+    /// marker is named).
+    ///
+    /// # Panics
+    /// If a grid dimension is 0 or exceeds `u32::MAX`, or there are more than `u32::MAX`
+    /// markers.
+    pub fn build(
+        &mut self,
+        grid: Grid,
+        periodic: [bool; 3],
+        positions: &[[f64; 3]],
+    ) -> Result<(), StencilError> {
+        assert!(grid.nodes() > 0, "empty grid {grid:?}");
+        assert!(
+            [grid.nx, grid.ny, grid.nz].iter().all(|&n| n <= u32::MAX as usize)
+                && positions.len() <= u32::MAX as usize,
+            "grid or marker count too large for 32-bit indices"
+        );
+        self.grid = grid;
+        self.periodic = periodic;
+        let m = positions.len();
+        self.node.resize(m, [[0; MAX_WIDTH]; 3]);
+        self.weight.resize(m, [[0.0; MAX_WIDTH]; 3]);
+        self.len.resize(m, [0; 3]);
+        self.slab.resize(m, 0);
+
+        // The slab schedule (see `transfer`): thickness ≥ stencil width; an even count when z
+        // is periodic; a single slab (serial) when there would be fewer than 4.
+        let t = self.kernel.width();
+        let mut s = grid.nz / t;
+        if periodic[2] && s % 2 == 1 {
+            s -= 1;
+        }
+        if s < MIN_PARALLEL_SLABS {
+            s = 1;
+        }
+        self.slab_thickness = t;
+        self.slabs = s;
+
+        let kernel = self.kernel;
+        let dims = [grid.nx, grid.ny, grid.nz];
+        let result = positions
+            .par_iter()
+            .zip(self.node.par_iter_mut())
+            .zip(self.weight.par_iter_mut())
+            .zip(self.len.par_iter_mut())
+            .zip(self.slab.par_iter_mut())
+            .enumerate()
+            .try_for_each(|(i, ((((x, nd), wt), ln), sl))| {
+                if !x.iter().all(|c| c.is_finite()) {
+                    return Err(StencilError::NonFinite { marker: i, position: *x });
+                }
+                for a in 0..3 {
+                    let n = dims[a];
+                    if !periodic[a] && !(-0.5..=n as f64 - 0.5).contains(&x[a]) {
+                        return Err(StencilError::OutsideBox {
+                            marker: i,
+                            position: *x,
+                            axis: a,
+                            max: n as f64 - 0.5,
+                        });
+                    }
+                    ln[a] = axis_stencil(kernel, x[a], n, periodic[a], &mut nd[a], &mut wt[a]) as u8;
+                }
+                *sl = (nd[2][0] as usize / t).min(s - 1) as u32;
+                Ok(())
+            });
+        if let Err(e) = result {
+            // The error of the lowest-indexed failing marker is not guaranteed in parallel;
+            // find it serially so the message is deterministic.
+            let first = (0..m)
+                .find_map(|i| {
+                    let x = positions[i];
+                    if !x.iter().all(|c| c.is_finite()) {
+                        return Some(StencilError::NonFinite { marker: i, position: x });
+                    }
+                    (0..3).find_map(|a| {
+                        let n = dims[a] as f64;
+                        (!periodic[a] && !(-0.5..=n - 0.5).contains(&x[a])).then_some(
+                            StencilError::OutsideBox { marker: i, position: x, axis: a, max: n - 0.5 },
+                        )
+                    })
+                })
+                .unwrap_or(e);
+            self.clear();
+            return Err(first);
+        }
+
+        // Counting sort of the markers by slab, stable (input order within a slab). O(M)
+        // integer work, serial (≈ 1 ns per marker).
+        self.slab_start.clear();
+        self.slab_start.resize(s + 1, 0);
+        for &sl in &self.slab {
+            self.slab_start[sl as usize + 1] += 1;
+        }
+        for k in 0..s {
+            self.slab_start[k + 1] += self.slab_start[k];
+        }
+        self.order.resize(m, 0);
+        // `slab_start[k]` serves as slab k's cursor; after the pass it holds the end of slab
+        // k (= the start of k + 1), so shift the array back by one.
+        let starts = &mut self.slab_start;
+        for (i, &sl) in self.slab.iter().enumerate() {
+            let c = &mut starts[sl as usize];
+            self.order[*c as usize] = i as u32;
+            *c += 1;
+        }
+        for k in (1..=s).rev() {
+            starts[k] = starts[k - 1];
+        }
+        starts[0] = 0;
+        Ok(())
+    }
+
+    /// Removes every marker (keeps the capacities).
+    pub fn clear(&mut self) {
+        self.node.clear();
+        self.weight.clear();
+        self.len.clear();
+        self.slab.clear();
+        self.order.clear();
+        self.slab_start.clear();
+        self.slab_start.push(0);
+        self.slab_start.push(0);
+        self.slabs = 1;
+    }
+
+    /// Calls `f(node, weight)` for every stencil node of marker `m` (`node` the linear index
+    /// `x + nx (y + ny z)`), in the fixed order z, then y, then x, with weight
+    /// `(φ_z · φ_y) · φ_x`. The one place the 3-D weights are formed: interpolation and
+    /// spreading both go through it, so they are adjoint by construction.
+    #[inline(always)]
+    pub fn for_each_node(&self, m: usize, mut f: impl FnMut(usize, f64)) {
+        let nd = &self.node[m];
+        let wt = &self.weight[m];
+        let ln = self.len[m];
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
+        for c in 0..ln[2] as usize {
+            let z = nd[2][c] as usize;
+            let wz = wt[2][c];
+            for b in 0..ln[1] as usize {
+                let row = nx * (nd[1][b] as usize + ny * z);
+                let wzy = wz * wt[1][b];
+                for a in 0..ln[0] as usize {
+                    f(row + nd[0][a] as usize, wzy * wt[0][a]);
+                }
+            }
+        }
+    }
+
+    /// The markers of slab `s`, in input order.
+    pub(super) fn slab_markers(&self, s: usize) -> &[u32] {
+        &self.order[self.slab_start[s] as usize..self.slab_start[s + 1] as usize]
+    }
+
+    /// The z-planes slab `s` owns: `[s·T, (s+1)·T)`, the last slab up to `nz`.
+    pub(super) fn slab_planes(&self, s: usize) -> std::ops::Range<usize> {
+        let lo = s * self.slab_thickness;
+        let hi = if s + 1 == self.slabs { self.grid.nz } else { lo + self.slab_thickness };
+        lo..hi
+    }
+}
+
+/// The 1-D stencil of a coordinate `x` on an axis of `n` nodes: writes the node coordinates and
+/// weights of the kept points and returns their number.
+#[inline]
+fn axis_stencil(
+    kernel: DeltaKernel,
+    x: f64,
+    n: usize,
+    periodic: bool,
+    nodes: &mut [u32; MAX_WIDTH],
+    weights: &mut [f64; MAX_WIDTH],
+) -> usize {
+    let w = kernel.width();
+    let lo = (x - kernel.support()).floor() as i64 + 1;
+    if periodic {
+        // One integer division per axis, then wrap by subtraction (`n` may be < `w`).
+        let mut node = lo.rem_euclid(n as i64) as usize;
+        for k in 0..w {
+            nodes[k] = node as u32;
+            weights[k] = kernel.phi(x - (lo + k as i64) as f64);
+            node += 1;
+            while node >= n {
+                node -= n;
+            }
+        }
+        return w;
+    }
+    let mut kept = 0;
+    let (mut sum, mut dropped) = (0.0, 0.0);
+    for k in 0..w {
+        let j = lo + k as i64;
+        let p = kernel.phi(x - j as f64);
+        if (0..n as i64).contains(&j) {
+            nodes[kept] = j as u32;
+            weights[kept] = p;
+            sum += p;
+            kept += 1;
+        } else {
+            dropped += p;
+        }
+    }
+    if dropped > 0.0 {
+        // `x ∈ [−½, n − ½]`: the nearest node is kept and φ(½) > 0 for every kernel, so sum > 0.
+        for p in &mut weights[..kept] {
+            *p /= sum;
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slab_order_is_a_stable_grouping() {
+        let grid = Grid::new(8, 8, 40);
+        let mut st = Stencils::new(DeltaKernel::Roma3);
+        let pos: Vec<[f64; 3]> = (0..200).map(|i| [1.0, 2.0, (i * 37 % 200) as f64 * 0.2]).collect();
+        st.build(grid, [true; 3], &pos).unwrap();
+        assert_eq!(st.slabs(), 12); // 40 / 3 = 13, odd with periodic z -> 12
+        let mut seen = vec![false; pos.len()];
+        for s in 0..st.slabs() {
+            let ms = st.slab_markers(s);
+            assert!(ms.windows(2).all(|w| w[0] < w[1]), "input order within a slab");
+            for &m in ms {
+                assert!(st.slab_planes(s).contains(&(st.node[m as usize][2][0] as usize)));
+                seen[m as usize] = true;
+            }
+        }
+        assert!(seen.iter().all(|&b| b));
+    }
+
+    #[test]
+    fn serial_when_few_slabs() {
+        let mut st = Stencils::new(DeltaKernel::Peskin4);
+        st.build(Grid::new(4, 4, 15), [true; 3], &[[1.0; 3]]).unwrap();
+        assert_eq!(st.slabs(), 1);
+        st.build(Grid::new(4, 4, 16), [true, true, false], &[[1.0; 3]]).unwrap();
+        assert_eq!(st.slabs(), 4);
+        st.build(Grid::new(4, 4, 20), [true; 3], &[[1.0; 3]]).unwrap();
+        assert_eq!(st.slabs(), 4);
+    }
+
+    #[test]
+    fn errors_name_the_first_bad_marker() {
+        let mut st = Stencils::new(DeltaKernel::Roma3);
+        let g = Grid::new(8, 8, 8);
+        let mut pos = vec![[3.0; 3]; 100];
+        pos[70][1] = 7.6;
+        pos[90][0] = f64::NAN;
+        let e = st.build(g, [true, false, true], &pos).unwrap_err();
+        assert_eq!(e, StencilError::OutsideBox { marker: 70, position: pos[70], axis: 1, max: 7.5 });
+        assert!(st.is_empty());
+        pos[70][1] = 7.5;
+        let e = st.build(g, [true, false, true], &pos).unwrap_err();
+        assert!(matches!(e, StencilError::NonFinite { marker: 90, .. }));
+        pos[90][0] = -1e3; // periodic axis: anywhere
+        st.build(g, [true, false, true], &pos).unwrap();
+        assert_eq!(st.len(), 100);
+    }
+
+    #[test]
+    fn rebuild_does_not_reallocate() {
+        let mut st = Stencils::new(DeltaKernel::Roma3);
+        let g = Grid::new(16, 16, 32);
+        let pos: Vec<[f64; 3]> =
+            (0..1000).map(|i| [i as f64 * 0.013, i as f64 * 0.029, i as f64 * 0.031]).collect();
+        st.build(g, [true; 3], &pos).unwrap();
+        let ptrs = |st: &Stencils| {
+            (
+                st.node.as_ptr() as usize,
+                st.weight.as_ptr() as usize,
+                st.len.as_ptr() as usize,
+                st.slab.as_ptr() as usize,
+                st.order.as_ptr() as usize,
+                st.slab_start.as_ptr() as usize,
+            )
+        };
+        let before = ptrs(&st);
+        for shift in 1..5 {
+            let moved: Vec<[f64; 3]> = pos.iter().map(|p| p.map(|c| c + 0.37 * shift as f64)).collect();
+            st.build(g, [true; 3], &moved[..1000 - shift]).unwrap();
+            assert_eq!(ptrs(&st), before);
+        }
+    }
+
+    #[test]
+    fn walled_axis_drops_and_renormalises() {
+        let mut nodes = [0; MAX_WIDTH];
+        let mut w = [0.0; MAX_WIDTH];
+        for k in DeltaKernel::ALL {
+            for &x in &[-0.5, -0.2, 0.0, 0.3, 1.0, 6.5, 6.7, 7.5] {
+                let len = axis_stencil(k, x, 8, false, &mut nodes, &mut w);
+                assert!(len >= 1 && nodes[..len].iter().all(|&j| j < 8), "{k:?} {x}");
+                let s: f64 = w[..len].iter().sum();
+                assert!((s - 1.0).abs() < 1e-15, "{k:?} x={x}: Σ = {s}");
+            }
+        }
+    }
+}

@@ -1,0 +1,185 @@
+//! The shape trait: what the rest of the code needs to know about a rigid body's geometry.
+//!
+//! Every quantity is in the body frame: origin at the centre of mass (centroid: bodies are
+//! homogeneous), axes along the principal axes of inertia. New shapes (the impellers next)
+//! implement [`Shape`] and plug into [`super::RigidBody`] unchanged.
+
+use super::Vec3;
+
+/// Default surface-marker spacing, in lattice units (Δ): 0.7, inside the 0.5–0.75 Δ the paper
+/// uses on every solid surface (physics.md §1).
+pub const DEFAULT_MARKER_SPACING: f64 = 0.7;
+
+/// Mass and principal moments of inertia of a homogeneous body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MassProperties {
+    /// Mass `m = ρ V`.
+    pub mass: f64,
+    /// Principal moments `(I_x, I_y, I_z)` about the centre of mass, along the body axes.
+    pub principal_moments: Vec3,
+}
+
+/// A point on a body's surface, for the immersed boundary method and for contacts.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Marker {
+    /// Position in the body frame.
+    pub position: Vec3,
+    /// Outward unit normal in the body frame.
+    pub normal: Vec3,
+    /// Area weight: the surface area the marker stands for. The weights of a shape's markers
+    /// sum to its [`Shape::surface_area`] (to round-off).
+    pub area: f64,
+}
+
+/// A rigid body's geometry, in its body frame.
+///
+/// Implementations must be consistent: `contains(p) ⇔ signed_distance(p) < 0`, the markers
+/// lie on the surface (`signed_distance ≈ 0`) with outward unit normals, and
+/// `principal_moments_unit_density` is diagonal in the body axes (the body frame *is* the
+/// principal frame).
+pub trait Shape: Send + Sync + std::fmt::Debug {
+    /// A short name (`"sphere"`, `"cylinder"`), for messages and output.
+    fn name(&self) -> &'static str;
+
+    /// Volume `V`.
+    fn volume(&self) -> f64;
+
+    /// Surface area `S` (what the marker area weights sum to).
+    fn surface_area(&self) -> f64;
+
+    /// Principal moments of inertia at unit density, `∫_V (y² + z², z² + x², x² + y²) dV`.
+    fn principal_moments_unit_density(&self) -> Vec3;
+
+    /// Mass and principal moments at density `density`: `m = ρ V`, `I = ρ I₁`.
+    fn mass_properties(&self, density: f64) -> MassProperties {
+        MassProperties {
+            mass: density * self.volume(),
+            principal_moments: self.principal_moments_unit_density() * density,
+        }
+    }
+
+    /// Signed distance from `p` (body frame) to the surface: negative inside, positive
+    /// outside, zero on the surface. Exact (a true Euclidean distance) for the shapes here.
+    fn signed_distance(&self, p: &Vec3) -> f64;
+
+    /// Whether `p` (body frame) lies strictly inside.
+    fn contains(&self, p: &Vec3) -> bool {
+        self.signed_distance(p) < 0.0
+    }
+
+    /// Radius of the smallest sphere about the centre of mass that encloses the body (the
+    /// broad phase of contacts uses it).
+    fn bounding_radius(&self) -> f64;
+
+    /// Surface markers at (about) `spacing` apart, with outward unit normals and area weights
+    /// summing to [`Shape::surface_area`]. Each shape documents its layout.
+    fn markers(&self, spacing: f64) -> Vec<Marker>;
+}
+
+/// `n` points equally spaced on a circle of radius `r` at height `z`, starting at angle
+/// `phase`; each with normal `normal(cosθ, sinθ)` and weight `area`. Shared by the shapes.
+pub(crate) fn ring(
+    out: &mut Vec<Marker>,
+    n: usize,
+    r: f64,
+    z: f64,
+    phase: f64,
+    area: f64,
+    normal: impl Fn(f64, f64) -> Vec3,
+) {
+    for k in 0..n {
+        let th = phase + std::f64::consts::TAU * k as f64 / n as f64;
+        let (s, c) = th.sin_cos();
+        out.push(Marker { position: Vec3::new(r * c, r * s, z), normal: normal(c, s), area });
+    }
+}
+
+/// Test helpers shared by the shapes' unit tests.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::{Marker, Shape, Vec3};
+
+    /// SplitMix64: a small, seeded generator for reproducible Monte Carlo tests.
+    pub struct SplitMix(pub u64);
+
+    impl SplitMix {
+        /// Next 64 random bits.
+        pub fn next_u64(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+        /// Uniform in `[a, b)`.
+        pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
+            a + (b - a) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+        }
+    }
+
+    /// Monte Carlo estimate of volume and unit-density principal moments with `n` samples
+    /// uniform in the box `[-h, h]³`, with their standard errors (from the sample variance).
+    /// Returns `([V, Ix, Iy, Iz], [σ_V, σ_Ix, σ_Iy, σ_Iz])`.
+    pub fn monte_carlo(shape: &dyn Shape, h: Vec3, n: usize, seed: u64) -> ([f64; 4], [f64; 4]) {
+        let mut rng = SplitMix(seed);
+        let vbox = 8.0 * h.x * h.y * h.z;
+        let mut sum = [0.0f64; 4];
+        let mut sum2 = [0.0f64; 4];
+        for _ in 0..n {
+            let p = Vec3::new(rng.uniform(-h.x, h.x), rng.uniform(-h.y, h.y), rng.uniform(-h.z, h.z));
+            if shape.contains(&p) {
+                let g = [1.0, p.y * p.y + p.z * p.z, p.z * p.z + p.x * p.x, p.x * p.x + p.y * p.y];
+                for k in 0..4 {
+                    sum[k] += g[k];
+                    sum2[k] += g[k] * g[k];
+                }
+            }
+        }
+        let nf = n as f64;
+        let mut est = [0.0; 4];
+        let mut err = [0.0; 4];
+        for k in 0..4 {
+            let mean = sum[k] / nf;
+            let var = sum2[k] / nf - mean * mean;
+            est[k] = vbox * mean;
+            err[k] = vbox * (var / nf).sqrt();
+        }
+        (est, err)
+    }
+
+    /// Nearest-neighbour distance of every marker (brute force).
+    pub fn nearest_neighbour(m: &[Marker]) -> Vec<f64> {
+        m.iter()
+            .enumerate()
+            .map(|(i, a)| {
+                m.iter()
+                    .enumerate()
+                    .filter(|&(j, _)| j != i)
+                    .map(|(_, b)| (a.position - b.position).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect()
+    }
+
+    /// Checks that every marker is on the surface, has a unit outward normal
+    /// (`p + εn` outside, `p − εn` inside) and a positive weight, and that the weights sum to
+    /// the surface area to relative 1e-12.
+    pub fn check_markers(shape: &dyn Shape, m: &[Marker], eps: f64) {
+        assert!(!m.is_empty());
+        for mk in m {
+            assert!((mk.normal.norm() - 1.0).abs() < 1e-14, "normal not unit: {mk:?}");
+            assert!(shape.signed_distance(&mk.position).abs() < 1e-12, "off the surface: {mk:?}");
+            assert!(!shape.contains(&(mk.position + eps * mk.normal)), "p + εn inside: {mk:?}");
+            assert!(shape.contains(&(mk.position - eps * mk.normal)), "p − εn outside: {mk:?}");
+            assert!(mk.area > 0.0);
+        }
+        let total: f64 = m.iter().map(|mk| mk.area).sum();
+        let rel = (total - shape.surface_area()).abs() / shape.surface_area();
+        assert!(
+            rel < 1e-12,
+            "{}: marker areas sum to {total}, surface {}",
+            shape.name(),
+            shape.surface_area()
+        );
+    }
+}
