@@ -7,7 +7,7 @@
 //! - [`kernel`]: the fused AA-pattern stream–collide kernel, vectorised, dispatched at run time.
 //! - [`boundary`]: box faces (periodic, no-slip, moving wall) and obstacle links.
 //! - [`fluid`]: the solver state and its time step, macroscopic fields, conservation sums.
-//! - [`reference`]: a plain two-lattice kernel kept as the oracle for the fused one.
+//! - [`reference`](mod@reference): a plain two-lattice kernel kept as the oracle for the fused one.
 //! - [`health`]: non-finite values and Mach number.
 
 pub mod boundary;

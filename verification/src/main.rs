@@ -24,11 +24,11 @@ struct Args {
     /// List the cases and exit.
     #[arg(long)]
     list: bool,
-    /// Rewrite the committed reference tables (verification/ref/<case>-<tier>.ref) with this
+    /// Rewrite the committed reference tables (`verification/ref/<case>-<tier>.ref`) with this
     /// run's numbers instead of comparing with them.
     #[arg(long)]
     bless: bool,
-    /// Where to write the JSON report [default: <workspace>/target/verification/report.json].
+    /// Where to write the JSON report (default: `<workspace>/target/verification/report.json`).
     #[arg(long, value_name = "PATH")]
     report: Option<PathBuf>,
 }

@@ -12,7 +12,7 @@
 //!   200 terms (the terms beyond n = 10 are below 1e-20 at the time used).
 //!
 //! **Steady part.** `N = 8, 16, 32` for BGK at `ν = 0.1` and `0.4` and TRT at `ν = 0.1`, run to
-//! steady state ([`super::run_to_steady`]). Metric: maximum relative error
+//! steady state (`run_to_steady` in `cases`). Metric: maximum relative error
 //! `max|u − u_exact| / U`. Tolerance 1e-12: a linear profile has no second derivative, so
 //! half-way bounce-back (with the moving-wall term) is exact for it with BGK as well as TRT and
 //! for any τ (the wall-offset error multiplies `∂²u`); what remains is the < 1.6e-13 left by the

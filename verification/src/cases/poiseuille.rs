@@ -3,7 +3,7 @@
 //! **Physics.** A `1 × 1 × N` box, periodic in x and y, half-way bounce-back walls on the z
 //! faces (so the walls sit at `z = −½` and `z = N − ½`: width `H = N`), uniform body force
 //! density `F` along x, fluid initially at rest, run to steady state (criterion:
-//! [`super::run_to_steady`], relative change below 1e-13 over one e-folding time; the number of
+//! `run_to_steady` (in `cases`), relative change below 1e-13 over one e-folding time; the number of
 //! steps and the last change are in the table).
 //!
 //! **Reference.** The exact steady solution of the Navier–Stokes equations,
