@@ -27,3 +27,4 @@ pub mod lattice;
 pub mod lbm;
 pub mod rigid;
 pub mod run;
+pub mod util;

@@ -5,36 +5,7 @@ use super::*;
 use crate::lattice::Grid;
 
 /// splitmix64: a tiny seeded generator (tests need reproducible, not strong, randomness).
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn vec3(&mut self, lo: f64, hi: f64) -> [f64; 3] {
-        [self.uniform(lo, hi), self.uniform(lo, hi), self.uniform(lo, hi)]
-    }
-}
-
-/// Neumaier's compensated sum: the inner products below must not add round-off of their own
-/// to the defect they measure.
-fn csum(values: impl Iterator<Item = f64>) -> f64 {
-    let (mut s, mut c) = (0.0f64, 0.0f64);
-    for v in values {
-        let t = s + v;
-        c += if s.abs() >= v.abs() { (s - t) + v } else { (v - t) + s };
-        s = t;
-    }
-    s + c
-}
+use crate::util::{compensated_sum as csum, SplitMix64 as Rng};
 
 fn dot(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
     csum(a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |k| x[k] * y[k])))

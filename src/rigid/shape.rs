@@ -99,23 +99,7 @@ pub(crate) fn ring(
 pub(crate) mod testing {
     use super::{Marker, Shape, Vec3};
 
-    /// SplitMix64: a small, seeded generator for reproducible Monte Carlo tests.
-    pub struct SplitMix(pub u64);
-
-    impl SplitMix {
-        /// Next 64 random bits.
-        pub fn next_u64(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
-        }
-        /// Uniform in `[a, b)`.
-        pub fn uniform(&mut self, a: f64, b: f64) -> f64 {
-            a + (b - a) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
-        }
-    }
+    pub use crate::util::SplitMix64 as SplitMix;
 
     /// Monte Carlo estimate of volume and unit-density principal moments with `n` samples
     /// uniform in the box `[-h, h]³`, with their standard errors (from the sample variance).

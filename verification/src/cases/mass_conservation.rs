@@ -45,27 +45,13 @@ use crate::{CaseOutput, Check, Table, Tier};
 
 const CASE: &str = "mass_conservation";
 
-/// SplitMix64: a tiny, seeded, portable pseudo-random generator.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// A seeded random field `(ρ, u)` per node.
 fn random_field(g: Grid, seed: u64) -> Vec<(f64, [f64; 3])> {
-    let mut r = SplitMix(seed);
+    let mut r = slurry::util::SplitMix64(seed);
     (0..g.nodes())
         .map(|_| {
-            let rho = 1.0 + 0.02 * (r.next() - 0.5);
-            let u = [0.0; 3].map(|_| 0.04 * (r.next() - 0.5));
+            let rho = 1.0 + 0.02 * (r.unit() - 0.5);
+            let u = [0.0; 3].map(|_| 0.04 * (r.unit() - 0.5));
             (rho, u)
         })
         .collect()
