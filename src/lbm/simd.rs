@@ -6,6 +6,11 @@
 //! one vector instruction. They are `#[inline(always)]`, and only ever called from inside the
 //! `#[target_feature]` entry points in [`super::kernel`], where the intrinsics inline.
 //!
+//! Everything between the entry point and these operations must inline: a generic helper from
+//! `core` (e.g. `std::array::from_fn`) that LLVM leaves out of line is compiled without the
+//! entry point's target features, and then calls each intrinsic as a function (measured: 3.5×
+//! slower). `cargo xtask bench` checks the binary for such calls.
+//!
 //! Fused multiply-adds round exactly like the scalar `mul_add`, so every lane computes exactly
 //! what the scalar code computes.
 #![allow(unsafe_op_in_unsafe_fn)]

@@ -33,6 +33,7 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
     if !status.success() {
         return Err("slurry bench failed".into());
     }
+    inlining_guard(root)?;
     let ours = std::fs::read_to_string(&lbm_json).map_err(|e| format!("{}: {e}", lbm_json.display()))?;
     let ours: Vec<Row> = split_objects(&ours).iter().filter_map(|o| Row::parse(o)).collect();
 
@@ -89,6 +90,30 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
         );
     }
     println!("\nfiles: {}, membw.json, lbmpy.json", lbm_json.display());
+    Ok(())
+}
+
+/// Fails if the `slurry` binary calls a SIMD intrinsic out of line. That happens when a generic
+/// helper in the kernel path (e.g. `std::array::from_fn`) is not inlined into the
+/// `#[target_feature]` entry point: it is then compiled without AVX and calls every intrinsic
+/// as a function (seen once: `slurry run` at 45 MLUPS while this benchmark showed 150, because
+/// the two instantiate the kernel in different crates).
+fn inlining_guard(root: &Path) -> Result<(), String> {
+    let bin = root.join("target/release/slurry");
+    let Ok(out) = Command::new("objdump").arg("-d").arg("--no-show-raw-insn").arg(&bin).output() else {
+        println!("(objdump not found: skipping the check for out-of-line SIMD intrinsics)");
+        return Ok(());
+    };
+    let text = String::from_utf8_lossy(&out.stdout);
+    let calls = text.lines().filter(|l| l.contains("call") && l.contains("_mm")).count();
+    if calls > 0 {
+        return Err(format!(
+            "{} calls SIMD intrinsics out of line ({calls} call sites): a helper in the kernel path \
+             did not inline into its #[target_feature] function; see src/lbm/simd.rs",
+            bin.display()
+        ));
+    }
+    println!("inlining check: no out-of-line SIMD intrinsic calls in {}", bin.display());
     Ok(())
 }
 
