@@ -6,6 +6,7 @@ pub mod ibm_transfer;
 pub mod mass_conservation;
 pub mod poiseuille;
 pub mod quaternion_norm;
+pub mod stokes_drag;
 pub mod taylor_green;
 pub mod torque_free;
 
@@ -57,6 +58,12 @@ pub fn all() -> Vec<Case> {
             name: "torque_free",
             summary: "torque-free top: energy/angular momentum second order, Dzhanibekov flip, precession",
             run: torque_free::run,
+        },
+        Case {
+            name: "stokes_drag",
+            summary:
+                "IBM: drag of a periodic array of fixed spheres (d/L = 0.25) vs Zick & Homsy, first order",
+            run: stokes_drag::run,
         },
     ]
 }
