@@ -59,8 +59,8 @@ pub struct Fluid<T: Real + Planes> {
     py: usize,
     stride: usize,
     f: Vec<T>,
+    /// Force density field (`3·stride`), empty while the field is off.
     force: Vec<T>,
-    force_on: bool,
     /// Per padded node: ghost or obstacle.
     solid: Vec<bool>,
     /// Per interior node: obstacle (kept for rebuilding and queries).
@@ -75,8 +75,8 @@ pub struct Fluid<T: Real + Planes> {
     isa: Isa,
 }
 
-/// Rounds `n` up to a multiple of 64 and adds 32, so the 19 arrays are 64-element aligned
-/// relative to each other but never a power of two apart.
+/// Rounds `n` up to a multiple of 64 and adds 32 elements, so that the 19 arrays are never a
+/// power of two apart (which would map the same node of every array to the same cache set).
 fn padded_stride(n: usize) -> usize {
     n.div_ceil(64) * 64 + 32
 }
@@ -141,7 +141,6 @@ impl<T: Real + Planes> Fluid<T> {
             stride,
             f: lattice_array(Q * stride),
             force: Vec::new(),
-            force_on: false,
             solid: vec![true; padded],
             obstacle: vec![false; grid.nodes()],
             row_has_solid: vec![false; grid.ny * grid.nz],
@@ -320,20 +319,19 @@ impl<T: Real + Planes> Fluid<T> {
     /// Turns on the per-node force density field (zero-initialised). The immersed boundary
     /// method writes into it; the kernel then reads three more arrays per node.
     pub fn enable_force_field(&mut self) {
-        if !self.force_on {
+        if self.force.is_empty() {
             self.force = lattice_array(3 * self.stride);
-            self.force_on = true;
         }
     }
 
     /// Whether the force density field is on.
     pub fn force_field_enabled(&self) -> bool {
-        self.force_on
+        !self.force.is_empty()
     }
 
     /// Sets the force density at interior node `(x, y, z)` (requires the field to be on).
     pub fn set_force(&mut self, x: usize, y: usize, z: usize, fv: [f64; 3]) {
-        assert!(self.force_on, "force field is off: call enable_force_field first");
+        assert!(self.force_field_enabled(), "force field is off: call enable_force_field first");
         let p = self.pidx(x, y, z);
         for (a, v) in fv.iter().enumerate() {
             self.force[a * self.stride + p] = T::from_f64(*v);
@@ -344,7 +342,7 @@ impl<T: Real + Planes> Fluid<T> {
     pub fn force_at(&self, x: usize, y: usize, z: usize) -> [f64; 3] {
         let p = self.pidx(x, y, z);
         std::array::from_fn(|a| {
-            let field = if self.force_on { self.force[a * self.stride + p] } else { T::ZERO };
+            let field = if self.force_field_enabled() { self.force[a * self.stride + p] } else { T::ZERO };
             (field + self.body[a]).to_f64()
         })
     }
@@ -373,7 +371,7 @@ impl<T: Real + Planes> Fluid<T> {
             time: self.time,
             grid: g,
             populations: gather(&self.f, Q),
-            force: self.force_on.then(|| gather(&self.force, 3)),
+            force: self.force_field_enabled().then(|| gather(&self.force, 3)),
         })
     }
 
@@ -407,8 +405,7 @@ impl<T: Real + Planes> Fluid<T> {
                 scatter(&mut self.force, fv, 3, stride, px, py);
             }
             None => {
-                self.force.clear();
-                self.force_on = false;
+                self.force = Vec::new();
             }
         }
         self.time = s.time;
@@ -420,7 +417,7 @@ impl<T: Real + Planes> Fluid<T> {
         let odd = !self.time.is_multiple_of(2);
         let s = Sweep {
             f: self.f.as_mut_ptr(),
-            force: if self.force_on { self.force.as_ptr() } else { std::ptr::null() },
+            force: if self.force_field_enabled() { self.force.as_ptr() } else { std::ptr::null() },
             stride: self.stride,
             off: self.off,
             rates: self.rates,
@@ -432,7 +429,7 @@ impl<T: Real + Planes> Fluid<T> {
             row_has_solid: self.row_has_solid.as_ptr(),
             solid: self.solid.as_ptr(),
         };
-        sweep(self.isa, &s, self.grid.nz, odd, self.params.is_trt(), self.force_on);
+        sweep(self.isa, &s, self.grid.nz, odd, self.params.is_trt(), self.force_field_enabled());
         if odd {
             self.apply_links(false);
         } else {

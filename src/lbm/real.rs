@@ -40,40 +40,6 @@ pub trait Real:
     fn is_finite(self) -> bool;
 }
 
-impl Real for f64 {
-    const NAME: &'static str = "f64";
-    const ZERO: Self = 0.0;
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self
-    }
-    #[inline(always)]
-    fn is_finite(self) -> bool {
-        f64::is_finite(self)
-    }
-}
-
-impl Real for f32 {
-    const NAME: &'static str = "f32";
-    const ZERO: Self = 0.0;
-    #[inline(always)]
-    fn from_f64(v: f64) -> Self {
-        v as f32
-    }
-    #[inline(always)]
-    fn to_f64(self) -> f64 {
-        self as f64
-    }
-    #[inline(always)]
-    fn is_finite(self) -> bool {
-        f32::is_finite(self)
-    }
-}
-
 /// Arithmetic on one value or on a bundle of lanes, element-wise.
 pub trait Lane:
     Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self>
@@ -89,37 +55,45 @@ pub trait Lane:
     fn fms(self, a: Self, b: Self) -> Self;
 }
 
-impl Lane for f64 {
-    type S = f64;
-    #[inline(always)]
-    fn splat(s: f64) -> Self {
-        s
-    }
-    #[inline(always)]
-    fn fma(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, b)
-    }
-    #[inline(always)]
-    fn fms(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, -b)
-    }
-}
+/// `Real` and scalar `Lane` for a primitive float type.
+macro_rules! scalar {
+    ($t:ty, $name:literal) => {
+        impl Real for $t {
+            const NAME: &'static str = $name;
+            const ZERO: Self = 0.0;
+            #[inline(always)]
+            fn from_f64(v: f64) -> Self {
+                v as $t
+            }
+            #[inline(always)]
+            fn to_f64(self) -> f64 {
+                self as f64
+            }
+            #[inline(always)]
+            fn is_finite(self) -> bool {
+                <$t>::is_finite(self)
+            }
+        }
 
-impl Lane for f32 {
-    type S = f32;
-    #[inline(always)]
-    fn splat(s: f32) -> Self {
-        s
-    }
-    #[inline(always)]
-    fn fma(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, b)
-    }
-    #[inline(always)]
-    fn fms(self, a: Self, b: Self) -> Self {
-        self.mul_add(a, -b)
-    }
+        impl Lane for $t {
+            type S = $t;
+            #[inline(always)]
+            fn splat(s: $t) -> Self {
+                s
+            }
+            #[inline(always)]
+            fn fma(self, a: Self, b: Self) -> Self {
+                self.mul_add(a, b)
+            }
+            #[inline(always)]
+            fn fms(self, a: Self, b: Self) -> Self {
+                self.mul_add(a, -b)
+            }
+        }
+    };
 }
+scalar!(f64, "f64");
+scalar!(f32, "f32");
 
 /// `L` lanes of `T`, operated on element-wise. Written as plain loops over a fixed-size
 /// array, which LLVM turns into vector instructions once inlined into a function compiled
