@@ -26,7 +26,7 @@ pub mod transfer;
 
 pub use kernel::DeltaKernel;
 pub use stencil::{StencilError, Stencils};
-pub use transfer::{interpolate, spread, FnField, NodeField};
+pub use transfer::{interpolate, spread, spread_into, FnField, ForceSink, NodeField};
 
 #[cfg(test)]
 mod tests;

@@ -41,7 +41,7 @@
 use rayon::prelude::*;
 
 use super::kernel::{DeltaKernel, MAX_WIDTH};
-use crate::lattice::Grid;
+use crate::lattice::{Grid, NodeLayout};
 
 /// A marker that cannot be given a stencil.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -295,16 +295,22 @@ impl Stencils {
     /// `(φ_z · φ_y) · φ_x`. The one place the 3-D weights are formed: interpolation and
     /// spreading both go through it, so they are adjoint by construction.
     #[inline(always)]
-    pub fn for_each_node(&self, m: usize, mut f: impl FnMut(usize, f64)) {
+    pub fn for_each_node(&self, m: usize, f: impl FnMut(usize, f64)) {
+        self.for_each_node_in(self.grid.layout(), m, f)
+    }
+
+    /// As [`Stencils::for_each_node`], with node indices in `layout` (e.g. the fluid's padded
+    /// arrays): the same nodes, in the same order, with bitwise the same weights.
+    #[inline(always)]
+    pub fn for_each_node_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize, f64)) {
         let nd = &self.node[m];
         let wt = &self.weight[m];
         let ln = self.len[m];
-        let (nx, ny) = (self.grid.nx, self.grid.ny);
         for c in 0..ln[2] as usize {
             let z = nd[2][c] as usize;
             let wz = wt[2][c];
             for b in 0..ln[1] as usize {
-                let row = nx * (nd[1][b] as usize + ny * z);
+                let row = layout.base + layout.sy * nd[1][b] as usize + layout.sz * z;
                 let wzy = wz * wt[1][b];
                 for a in 0..ln[0] as usize {
                     f(row + nd[0][a] as usize, wzy * wt[0][a]);
@@ -319,6 +325,7 @@ impl Stencils {
     }
 
     /// The z-planes slab `s` owns: `[s·T, (s+1)·T)`, the last slab up to `nz`.
+    #[cfg(test)]
     pub(super) fn slab_planes(&self, s: usize) -> std::ops::Range<usize> {
         let lo = s * self.slab_thickness;
         let hi = if s + 1 == self.slabs { self.grid.nz } else { lo + self.slab_thickness };

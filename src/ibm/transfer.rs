@@ -60,6 +60,7 @@
 use rayon::prelude::*;
 
 use super::stencil::{Stencils, MIN_PARALLEL_SLABS};
+use crate::lattice::NodeLayout;
 
 /// A vector value per node of the interior grid (index `x + nx (y + ny z)`), read by
 /// [`interpolate`]. Must be safe to read from several threads.
@@ -132,6 +133,21 @@ pub fn interpolate<F: NodeField + ?Sized>(field: &F, stencils: &Stencils, out: &
     });
 }
 
+/// Where spreading writes: a per-node force density that tasks writing disjoint z-slabs may
+/// update concurrently. Implemented for a plain per-node slice ([`spread`]) and, in
+/// `coupling`, for the fluid's own force field (no intermediate full-grid buffer).
+pub trait ForceSink: Sync {
+    /// The layout of the sink's node indices.
+    fn layout(&self) -> NodeLayout;
+
+    /// `sink[index] += w · f`.
+    ///
+    /// # Safety
+    /// `index` is the layout's index of a node of the stencils' grid, and no other thread
+    /// accesses that node during the call.
+    unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]);
+}
+
 /// Spreads the marker forces onto the nodes: `field[n] += Σ_m δ_mn forces[m]` (adds; the
 /// caller zeroes `field` if it wants `S F` alone). Parallel over z-slabs in two phases,
 /// bitwise identical for any thread count (see the module docs for the scheme and its proof),
@@ -143,33 +159,40 @@ pub fn interpolate<F: NodeField + ?Sized>(field: &F, stencils: &Stencils, out: &
 /// If `forces.len()` differs from the number of markers or `field.len()` from the grid's
 /// node count.
 pub fn spread(forces: &[[f64; 3]], stencils: &Stencils, field: &mut [[f64; 3]]) {
-    assert_eq!(forces.len(), stencils.len(), "one force per marker");
     assert_eq!(field.len(), stencils.grid().nodes(), "field on the stencils' grid");
+    let shared = SharedField { ptr: field.as_mut_ptr(), len: field.len(), layout: stencils.grid().layout() };
+    spread_into(forces, stencils, &shared);
+}
+
+/// [`spread`] into any [`ForceSink`]: the same slab schedule, the same order of updates per
+/// node, so the result (in the sink's precision) is bitwise independent of the thread count.
+///
+/// # Panics
+/// If `forces.len()` differs from the number of markers.
+pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stencils, sink: &S) {
+    assert_eq!(forces.len(), stencils.len(), "one force per marker");
+    let layout = sink.layout();
     let slabs = stencils.slabs();
     if slabs < MIN_PARALLEL_SLABS {
         for s in 0..slabs {
             for &m in stencils.slab_markers(s) {
                 let f = forces[m as usize];
-                stencils.for_each_node(m as usize, |n, w| add(&mut field[n], w, f));
+                // SAFETY: serial; the index is a stencil node in the sink's layout.
+                stencils.for_each_node_in(layout, m as usize, |n, w| unsafe { sink.add(n, w, f) });
             }
         }
         return;
     }
-    let shared = SharedField { ptr: field.as_mut_ptr(), len: field.len() };
     for phase in 0..2 {
         (0..(slabs - phase).div_ceil(2)).into_par_iter().for_each(|k| {
             let s = phase + 2 * k;
-            let own = stencils.slab_planes(s);
-            let next = stencils.slab_planes((s + 1) % slabs);
-            let plane = stencils.grid().nx * stencils.grid().ny;
             for &m in stencils.slab_markers(s) {
                 let f = forces[m as usize];
-                stencils.for_each_node(m as usize, |n, w| {
-                    debug_assert!(own.contains(&(n / plane)) || next.contains(&(n / plane)));
-                    // SAFETY: `n < len` (a stencil node of the grid the field was checked
-                    // against), and by the phase argument of the module docs no other task of
-                    // this phase writes a node in slabs `s` or `s + 1`, which contain `n`.
-                    unsafe { shared.add(n, w, f) }
+                stencils.for_each_node_in(layout, m as usize, |n, w| {
+                    // SAFETY: a stencil node of the grid, in the sink's layout; by the phase
+                    // argument of the module docs no other task of this phase writes a node
+                    // in slabs `s` or `s + 1`, which contain this one.
+                    unsafe { sink.add(n, w, f) }
                 });
             }
         });
@@ -185,22 +208,23 @@ fn add(cell: &mut [f64; 3], w: f64, f: [f64; 3]) {
     cell[2] += w * f[2];
 }
 
-/// The force field shared by the tasks of one spreading phase, which write disjoint nodes.
+/// A per-node slice shared by the tasks of one spreading phase, which write disjoint nodes.
 struct SharedField {
     ptr: *mut [f64; 3],
     len: usize,
+    layout: NodeLayout,
 }
 
-// SAFETY: the tasks that share it write disjoint nodes (see `spread`), and the borrow of the
-// field it was made from outlives every task (they are joined before `spread` returns).
+// SAFETY: the tasks that share it write disjoint nodes (see `spread_into`), and the borrow of
+// the field it was made from outlives every task (they are joined before `spread` returns).
 unsafe impl Sync for SharedField {}
 unsafe impl Send for SharedField {}
 
-impl SharedField {
-    /// `field[n] += w · f`.
-    ///
-    /// # Safety
-    /// `n < len`, and no other thread accesses node `n` during the call.
+impl ForceSink for SharedField {
+    fn layout(&self) -> NodeLayout {
+        self.layout
+    }
+
     #[inline(always)]
     unsafe fn add(&self, n: usize, w: f64, f: [f64; 3]) {
         debug_assert!(n < self.len);

@@ -46,6 +46,47 @@ impl Grid {
     }
 }
 
+/// The linear index of node `(x, y, z)` in some array: `base + x + sy·y + sz·z`. The interior
+/// order of a [`Grid`] is `(0, nx, nx·ny)`; the fluid's padded arrays have their own
+/// (`crate::lbm::Fluid::padded_layout`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NodeLayout {
+    /// Index of node `(0, 0, 0)`.
+    pub base: usize,
+    /// Index step per `y`.
+    pub sy: usize,
+    /// Index step per `z`.
+    pub sz: usize,
+}
+
+impl NodeLayout {
+    /// Index of node `(x, y, z)`.
+    #[inline(always)]
+    pub fn index(&self, x: usize, y: usize, z: usize) -> usize {
+        self.base + x + self.sy * y + self.sz * z
+    }
+}
+
+impl Grid {
+    /// The interior layout `x + nx (y + ny z)` (what [`Grid::index`] computes).
+    pub fn layout(&self) -> NodeLayout {
+        NodeLayout { base: 0, sy: self.nx, sz: self.nx * self.ny }
+    }
+}
+
+/// A run of consecutive nodes along x: `(x0 .. x0 + len, y, z)`, all inside the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Run {
+    /// First x.
+    pub x0: u32,
+    /// Number of nodes (≥ 1).
+    pub len: u32,
+    /// Row y.
+    pub y: u32,
+    /// Plane z.
+    pub z: u32,
+}
+
 /// One of the six faces of the box.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -7,4 +7,4 @@ mod d3q19;
 mod grid;
 
 pub use d3q19::{C, CS2, OPP, Q, W};
-pub use grid::{Face, Grid};
+pub use grid::{Face, Grid, NodeLayout, Run};

@@ -638,3 +638,165 @@ impl<T: Real + Planes> Fluid<T> {
         tot
     }
 }
+
+/// Shared write access to the fluid's force density field, for parallel writers that touch
+/// disjoint nodes (the immersed boundary method spreads marker forces by z-slabs). Indices are
+/// padded node indices ([`Fluid::padded_layout`]); values are converted to the storage
+/// precision `T` on every write (`field ← T(field + w·f)`, the same `f64` operations as
+/// `ibm::spread` into a slice, so for `T = f64` the two agree bitwise).
+pub struct ForceFieldWriter<'a, T> {
+    ptr: *mut T,
+    stride: usize,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the writer is a mutable borrow of the field; the methods that write are `unsafe`
+// and require that no two threads touch the same node at once.
+unsafe impl<T: Send> Send for ForceFieldWriter<'_, T> {}
+unsafe impl<T: Send> Sync for ForceFieldWriter<'_, T> {}
+
+impl<T: Real> ForceFieldWriter<'_, T> {
+    /// `field[p] += w · f` (component-wise, accumulated in `f64`, stored as `T`).
+    ///
+    /// # Safety
+    /// `p` is a padded index of an interior node, and no other thread accesses node `p`
+    /// during the call.
+    #[inline(always)]
+    pub unsafe fn add(&self, p: usize, w: f64, f: [f64; 3]) {
+        debug_assert!(p < self.stride && self.len == 3 * self.stride);
+        for (a, fa) in f.iter().enumerate() {
+            let slot = self.ptr.add(a * self.stride + p);
+            *slot = T::from_f64((*slot).to_f64() + w * *fa);
+        }
+    }
+
+    /// `field[p] = 0`.
+    ///
+    /// # Safety
+    /// As [`ForceFieldWriter::add`].
+    #[inline(always)]
+    pub unsafe fn clear(&self, p: usize) {
+        debug_assert!(p < self.stride);
+        for a in 0..3 {
+            *self.ptr.add(a * self.stride + p) = T::ZERO;
+        }
+    }
+}
+
+impl<T: Real + Planes> Fluid<T> {
+    /// The layout of the padded arrays (populations per direction, force field per component):
+    /// interior node `(x, y, z)` sits at `(x+1) + px ((y+1) + py (z+1))`.
+    pub fn padded_layout(&self) -> crate::lattice::NodeLayout {
+        crate::lattice::NodeLayout { base: 1 + self.px * (1 + self.py), sy: self.px, sz: self.px * self.py }
+    }
+
+    /// Shared write access to the force field (see [`ForceFieldWriter`]).
+    ///
+    /// # Panics
+    /// If the force field is off.
+    pub fn force_field_writer(&mut self) -> ForceFieldWriter<'_, T> {
+        assert!(self.force_field_enabled(), "force field is off: call enable_force_field first");
+        ForceFieldWriter {
+            ptr: self.force.as_mut_ptr(),
+            stride: self.stride,
+            len: self.force.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// Density, momentum `j = Σ f_i c_i` (no force correction) and force density `F` (the
+    /// uniform body force plus the node's field) at every node of `run`, in order:
+    /// `f(x, ρ, j, F)`. The physical velocity is `u = (j + F/2)/ρ`; formed as
+    /// `(j[a] + 0.5 * F[a]) / ρ` it equals [`Fluid::macroscopic`]'s bitwise (the same sums in
+    /// the same order). Read row-wise, for the immersed-boundary band and interior sums.
+    ///
+    /// # Panics
+    /// If the run leaves the grid.
+    pub fn for_each_in_run(
+        &self,
+        run: crate::lattice::Run,
+        mut f: impl FnMut(usize, f64, [f64; 3], [f64; 3]),
+    ) {
+        let g = self.grid;
+        let (x0, len, y, z) = (run.x0 as usize, run.len as usize, run.y as usize, run.z as usize);
+        assert!(x0 + len <= g.nx && y < g.ny && z < g.nz, "run {run:?} outside the grid {g:?}");
+        let even = self.time.is_multiple_of(2);
+        let field = self.force_field_enabled();
+        let mut src = [0usize; Q];
+        let p0 = self.pidx(x0, y, z);
+        for i in 0..Q {
+            src[i] = if even {
+                i * self.stride + p0
+            } else {
+                (OPP[i] * self.stride + p0).wrapping_add_signed(-self.off[i])
+            };
+        }
+        let mut h = [0.0f64; Q];
+        for k in 0..len {
+            for i in 0..Q {
+                h[i] = self.f[src[i] + k].to_f64();
+            }
+            let (drho, j) = moments(&h);
+            let p = p0 + k;
+            let mut fc = [0.0; 3];
+            for a in 0..3 {
+                let fa = if field { self.force[a * self.stride + p] } else { T::ZERO };
+                fc[a] = (fa + self.body[a]).to_f64();
+            }
+            f(x0 + k, 1.0 + drho, j, fc);
+        }
+    }
+
+    /// Force and torque that the fluid exerted on every bounce-back surface (the box walls and
+    /// obstacles) during the last step, by momentum exchange (Ladd 1994): each link carries
+    /// an outgoing population `f_out` (direction `−c_i`, into the wall) and returns
+    /// `f_in = f_out + 6 w_i c_i·u_w` (direction `c_i`), so the wall gains
+    /// `−c_i (f_out + f_in)` per step, applied at the link's midpoint `x − c_i/2`. Torque about
+    /// `origin`. Both populations are still in memory after [`Fluid::step`] (the link
+    /// operations copy, they do not move), so this reads them; it changes nothing.
+    ///
+    /// Summed in fixed chunks of links, reduced in order: bitwise identical for any thread
+    /// count. Zero before the first step.
+    pub fn wall_momentum_exchange(&self, origin: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        if self.time == 0 {
+            return ([0.0; 3], [0.0; 3]);
+        }
+        let (px, py, stride) = (self.px, self.py, self.stride);
+        let parts: Vec<[f64; 6]> = self
+            .bounce
+            .par_chunks(4096)
+            .map(|links| {
+                let mut acc = [0.0; 6];
+                for l in links {
+                    let i = l.own / stride;
+                    let p = l.own % stride;
+                    let (x, y, z) = (p % px, (p / px) % py, p / (px * py));
+                    let node = [x as f64 - 1.0, y as f64 - 1.0, z as f64 - 1.0];
+                    let sum = self.f[l.own].to_f64() + self.f[l.ghost].to_f64() + 2.0 * W[i];
+                    let c = C[i];
+                    let fw = [-(c[0] as f64) * sum, -(c[1] as f64) * sum, -(c[2] as f64) * sum];
+                    let r = [
+                        node[0] - 0.5 * c[0] as f64 - origin[0],
+                        node[1] - 0.5 * c[1] as f64 - origin[1],
+                        node[2] - 0.5 * c[2] as f64 - origin[2],
+                    ];
+                    acc[0] += fw[0];
+                    acc[1] += fw[1];
+                    acc[2] += fw[2];
+                    acc[3] += r[1] * fw[2] - r[2] * fw[1];
+                    acc[4] += r[2] * fw[0] - r[0] * fw[2];
+                    acc[5] += r[0] * fw[1] - r[1] * fw[0];
+                }
+                acc
+            })
+            .collect();
+        let mut tot = [0.0; 6];
+        for p in parts {
+            for k in 0..6 {
+                tot[k] += p[k];
+            }
+        }
+        ([tot[0], tot[1], tot[2]], [tot[3], tot[4], tot[5]])
+    }
+}

@@ -21,7 +21,7 @@ pub mod reference;
 pub mod simd;
 
 pub use boundary::{Boundaries, FaceBoundary};
-pub use fluid::{equilibrium, Fluid, FluidState};
+pub use fluid::{equilibrium, Fluid, FluidState, ForceFieldWriter};
 pub use health::Health;
 pub use kernel::Isa;
 pub use params::{Collision, FluidParams};

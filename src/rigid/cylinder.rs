@@ -4,7 +4,7 @@
 use std::f64::consts::{FRAC_1_SQRT_2, PI, TAU};
 
 use super::shape::{ring, Marker, Shape};
-use super::Vec3;
+use super::{Mat3, Vec3};
 
 /// A solid circular cylinder of diameter `d` and length `ℓ`, axis along body `z`, centred at
 /// the origin (caps at `z = ±ℓ/2`).
@@ -101,6 +101,51 @@ impl Shape for Cylinder {
 
     fn bounding_radius(&self) -> f64 {
         self.radius().hypot(0.5 * self.length)
+    }
+
+    /// The box of the flat-capped cylinder of radius `R + offset` and half-length
+    /// `ℓ/2 + offset` (which contains the rounded set `{sd < offset}`): with `a` the world
+    /// axis, `e_k = (ℓ/2 + offset)|a_k| + (R + offset)√(1 − a_k²)`.
+    fn half_extents(&self, rotation: &Mat3, offset: f64) -> Vec3 {
+        let a = rotation.column(2);
+        let (r, h) = (self.radius() + offset, 0.5 * self.length + offset);
+        Vec3::from_fn(|k, _| h * a[k].abs() + r * (1.0 - a[k] * a[k]).max(0.0).sqrt())
+    }
+
+    /// The chord of the flat-capped cylinder of radius `R + offset` and half-length
+    /// `ℓ/2 + offset`. For `offset < 0` that cylinder *is* the set `{sd < offset}` (exact);
+    /// for `offset > 0` it contains the set (whose rims are rounded): a superset, as the
+    /// trait asks.
+    fn chord(&self, p: &Vec3, dir: &Vec3, offset: f64) -> Option<(f64, f64)> {
+        let (r, h) = (self.radius() + offset, 0.5 * self.length + offset);
+        if r <= 0.0 || h <= 0.0 {
+            return None;
+        }
+        // Slab |z| < h.
+        let (mut t0, mut t1) = if dir.z.abs() > 1e-300 {
+            let (a, b) = ((-h - p.z) / dir.z, (h - p.z) / dir.z);
+            (a.min(b), a.max(b))
+        } else if p.z.abs() < h {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            return None;
+        };
+        // Infinite cylinder x² + y² < r².
+        let a = dir.x * dir.x + dir.y * dir.y;
+        let b = p.x * dir.x + p.y * dir.y;
+        let c = p.x * p.x + p.y * p.y - r * r;
+        if a > 1e-300 {
+            let disc = b * b - a * c;
+            if disc <= 0.0 {
+                return None;
+            }
+            let s = disc.sqrt();
+            t0 = t0.max((-b - s) / a);
+            t1 = t1.min((-b + s) / a);
+        } else if c >= 0.0 {
+            return None;
+        }
+        (t0 < t1).then_some((t0, t1))
     }
 
     fn markers(&self, spacing: f64) -> Vec<Marker> {

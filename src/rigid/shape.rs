@@ -4,7 +4,7 @@
 //! homogeneous), axes along the principal axes of inertia. New shapes (the impellers next)
 //! implement [`Shape`] and plug into [`super::RigidBody`] unchanged.
 
-use super::Vec3;
+use super::{Mat3, Vec3};
 
 /// Default surface-marker spacing, in lattice units (Δ): 0.7, inside the 0.5–0.75 Δ the paper
 /// uses on every solid surface (physics.md §1).
@@ -71,9 +71,52 @@ pub trait Shape: Send + Sync + std::fmt::Debug {
     /// broad phase of contacts uses it).
     fn bounding_radius(&self) -> f64;
 
+    /// Half extents of a world-frame axis-aligned box, centred on the centre of mass, that
+    /// contains every point with `signed_distance < offset` (`offset ≥ 0`) when the body has
+    /// rotation `rotation` (body → world). The default is the bounding sphere's cube,
+    /// `bounding_radius + offset` on every axis; shapes override it with a tighter box.
+    fn half_extents(&self, rotation: &Mat3, offset: f64) -> Vec3 {
+        let _ = rotation;
+        Vec3::repeat(self.bounding_radius() + offset)
+    }
+
+    /// The parameter interval `(t₀, t₁)` of the line `p + t·dir` (body frame, `|dir| = 1`)
+    /// that meets the set `{signed_distance < offset}`, as follows:
+    /// - `offset ≥ 0`: an interval that **contains** every such `t` (a superset is allowed:
+    ///   the caller visits nodes in it and tests them);
+    /// - `offset < 0`: an interval **contained** in the set (a subset is allowed: the caller
+    ///   skips the nodes in it as "deep inside").
+    ///
+    /// `None` means: no point (superset case), or nothing known (subset case). The default
+    /// uses the bounding sphere for `offset ≥ 0` and knows nothing for `offset < 0`; shapes
+    /// override it with exact chords. The immersed boundary band and the interior-fluid sums
+    /// of `coupling` are built from these chords, row by row.
+    fn chord(&self, p: &Vec3, dir: &Vec3, offset: f64) -> Option<(f64, f64)> {
+        if offset < 0.0 {
+            return None;
+        }
+        sphere_chord(p, dir, self.bounding_radius() + offset)
+    }
+
     /// Surface markers at (about) `spacing` apart, with outward unit normals and area weights
     /// summing to [`Shape::surface_area`]. Each shape documents its layout.
     fn markers(&self, spacing: f64) -> Vec<Marker>;
+}
+
+/// The chord `(t₀, t₁)` of the line `p + t·dir` (`|dir| = 1`) through the open ball of radius
+/// `r` about the origin, or `None` if it misses (or `r ≤ 0`).
+pub(crate) fn sphere_chord(p: &Vec3, dir: &Vec3, r: f64) -> Option<(f64, f64)> {
+    if r <= 0.0 {
+        return None;
+    }
+    let b = p.dot(dir);
+    let c = p.norm_squared() - r * r;
+    let disc = b * b - c;
+    if disc <= 0.0 {
+        return None;
+    }
+    let s = disc.sqrt();
+    Some((-b - s, -b + s))
 }
 
 /// `n` points equally spaced on a circle of radius `r` at height `z`, starting at angle

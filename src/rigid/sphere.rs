@@ -2,8 +2,8 @@
 
 use std::f64::consts::PI;
 
-use super::shape::{Marker, Shape};
-use super::Vec3;
+use super::shape::{sphere_chord, Marker, Shape};
+use super::{Mat3, Vec3};
 
 /// A sphere of diameter `d` (radius `R = d/2`) centred at the origin.
 ///
@@ -65,6 +65,15 @@ impl Shape for Sphere {
 
     fn bounding_radius(&self) -> f64 {
         self.radius()
+    }
+
+    fn half_extents(&self, _rotation: &Mat3, offset: f64) -> Vec3 {
+        Vec3::repeat(self.radius() + offset)
+    }
+
+    /// Exact for every offset: the ball of radius `r + offset`.
+    fn chord(&self, p: &Vec3, dir: &Vec3, offset: f64) -> Option<(f64, f64)> {
+        sphere_chord(p, dir, self.radius() + offset)
     }
 
     fn markers(&self, spacing: f64) -> Vec<Marker> {

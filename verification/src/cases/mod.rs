@@ -1,6 +1,7 @@
 //! The verification cases, and helpers they share.
 
 pub mod couette;
+pub mod free_particles;
 pub mod fused_vs_reference;
 pub mod ibm_transfer;
 pub mod mass_conservation;
@@ -64,6 +65,11 @@ pub fn all() -> Vec<Case> {
             summary:
                 "IBM: drag of a periodic array of fixed spheres (d/L = 0.25) vs Zick & Homsy, first order",
             run: stokes_drag::run,
+        },
+        Case {
+            name: "free_particles",
+            summary: "free bodies at gamma = 1.25: sphere spins at shear/2, falling cylinder's momentum budget",
+            run: free_particles::run,
         },
     ]
 }
