@@ -93,8 +93,8 @@ use rayon::prelude::*;
 use crate::ibm::{interpolate, spread_into, DeltaKernel, ForceSink, StencilError, Stencils};
 use crate::lattice::{Face, NodeLayout, Run};
 use crate::lbm::kernel::Planes;
-use crate::lbm::{Fluid, ForceFieldWriter, Real};
-use crate::rigid::{LoadScheme, Marker, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
+use crate::lbm::{Fluid, FluidError, FluidState, ForceFieldWriter, Real};
+use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
 
 mod band;
 
@@ -136,6 +136,15 @@ pub enum CouplingError {
     MarkerSpacing(f64),
     /// The stencils could not be built (a marker off the box on a walled axis, or not finite).
     Stencil(StencilError),
+    /// A state to restore has a different number of bodies.
+    BodyCount {
+        /// Bodies in this coupling.
+        expected: usize,
+        /// Bodies in the state.
+        found: usize,
+    },
+    /// A fluid state to restore does not fit (the fluid's message).
+    State(String),
 }
 
 impl fmt::Display for CouplingError {
@@ -146,6 +155,10 @@ impl fmt::Display for CouplingError {
                 write!(f, "marker spacing {h}: must be positive and finite")
             }
             CouplingError::Stencil(e) => write!(f, "IBM stencils: {e}"),
+            CouplingError::BodyCount { expected, found } => {
+                write!(f, "state has {found} bodies, the case has {expected}")
+            }
+            CouplingError::State(e) => write!(f, "fluid state: {e}"),
         }
     }
 }
@@ -194,6 +207,59 @@ impl BodyLoads {
     }
 }
 
+/// The kinematic state of one body in a [`CoupledState`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyState {
+    /// Position of the centre of mass.
+    pub position: Vec3,
+    /// Orientation quaternion `(w, x, y, z)`.
+    pub orientation: [f64; 4],
+    /// Velocity.
+    pub velocity: Vec3,
+    /// Angular velocity (world frame).
+    pub angular_velocity: Vec3,
+    /// The body's time.
+    pub time: f64,
+    /// The last step's change of velocity and angular velocity ([`Coupled::velocity_change`]).
+    pub change: (Vec3, Vec3),
+}
+
+/// Everything a coupled run needs to continue bitwise identically: the fluid at an even step
+/// and the bodies' states. The force field is not needed: the next step clears it where it is
+/// non-zero before reading it, so [`Coupled::restore`] zeroes it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoupledState<T> {
+    /// The fluid.
+    pub fluid: FluidState<T>,
+    /// The bodies, in order.
+    pub bodies: Vec<BodyState>,
+}
+
+/// Wall-clock seconds spent in each phase of [`Coupled::step`], summed over the steps since
+/// the coupling was made (or since [`Coupled::reset_timings`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepTimings {
+    /// Steps counted.
+    pub steps: u64,
+    /// 1–2: markers, stencils and band.
+    pub geometry: f64,
+    /// 3 and 7: interior-fluid sums (both).
+    pub interior: f64,
+    /// 4–5: clearing, band velocity, interpolation, forcing and spreading.
+    pub forcing: f64,
+    /// 6: the fluid step.
+    pub fluid: f64,
+    /// 7–8: loads and body updates.
+    pub bodies: f64,
+}
+
+impl StepTimings {
+    /// Total seconds.
+    pub fn total(&self) -> f64 {
+        self.geometry + self.interior + self.forcing + self.fluid + self.bodies
+    }
+}
+
 /// A lattice fluid with immersed rigid bodies (fixed, prescribed or free), coupled by
 /// direct-forcing IBM. See the module docs and [`Coupled::step`].
 pub struct Coupled<T: Real + Planes> {
@@ -203,6 +269,8 @@ pub struct Coupled<T: Real + Planes> {
     markers: Vec<Vec<Marker>>,
     /// Marker index range of body `b`: `offsets[b]..offsets[b + 1]` (global marker order).
     offsets: Vec<usize>,
+    /// The body of each marker (global order).
+    owner: Vec<u32>,
     stencils: Stencils,
     iterations: usize,
     gravity: Vec3,
@@ -236,6 +304,7 @@ pub struct Coupled<T: Real + Planes> {
     shell: Vec<(f64, Vec3)>,
     /// Per free body, its change of velocity and angular velocity (world) in the last step.
     change: Vec<(Vec3, Vec3)>,
+    timings: StepTimings,
 }
 
 /// The fluid's force field as a spreading target.
@@ -297,10 +366,13 @@ impl<T: Real + Planes> Coupled<T> {
         let nodes = fluid.grid().nodes();
         let n_bodies = bodies.len();
         let band = Band { per_body: vec![Vec::new(); n_bodies], ..Band::default() };
+        let owner =
+            markers.iter().enumerate().flat_map(|(b, m)| std::iter::repeat_n(b as u32, m.len())).collect();
         Ok(Self {
             fluid,
             bodies,
             offsets,
+            owner,
             stencils: Stencils::new(params.kernel),
             iterations: params.iterations,
             gravity: Vec3::from(params.gravity),
@@ -319,6 +391,7 @@ impl<T: Real + Planes> Coupled<T> {
             loads: vec![BodyLoads::default(); n_bodies],
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
+            timings: StepTimings::default(),
             markers,
         })
     }
@@ -406,6 +479,70 @@ impl<T: Real + Planes> Coupled<T> {
         self.change[b] = change;
     }
 
+    /// The state for a checkpoint (at an even time step; see [`Fluid::snapshot`]).
+    ///
+    /// # Errors
+    /// At an odd time step.
+    pub fn snapshot(&self) -> Result<CoupledState<T>, FluidError> {
+        let mut fluid = self.fluid.snapshot()?;
+        fluid.force = None;
+        let bodies = self
+            .bodies
+            .iter()
+            .zip(&self.change)
+            .map(|(b, c)| {
+                let q = b.orientation.into_inner();
+                BodyState {
+                    position: b.position,
+                    orientation: [q.w, q.i, q.j, q.k],
+                    velocity: b.velocity,
+                    angular_velocity: b.angular_velocity,
+                    time: b.time,
+                    change: *c,
+                }
+            })
+            .collect();
+        Ok(CoupledState { fluid, bodies })
+    }
+
+    /// Restores a state taken by [`Coupled::snapshot`] from a coupling built the same way (same
+    /// case). The continuation is bitwise identical to the uninterrupted run.
+    ///
+    /// # Errors
+    /// A fluid state that does not fit, or a body count that differs.
+    pub fn restore(&mut self, s: &CoupledState<T>) -> Result<(), CouplingError> {
+        if s.bodies.len() != self.bodies.len() {
+            return Err(CouplingError::BodyCount { expected: self.bodies.len(), found: s.bodies.len() });
+        }
+        self.fluid.restore(&s.fluid).map_err(|e| CouplingError::State(e.to_string()))?;
+        self.fluid.enable_force_field();
+        self.fluid.clear_force_field();
+        for ((b, c), st) in self.bodies.iter_mut().zip(self.change.iter_mut()).zip(&s.bodies) {
+            let [w, x, y, z] = st.orientation;
+            *b = b
+                .clone()
+                .with_time(st.time)
+                .with_position(st.position)
+                .with_orientation(Quat::new_normalize(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
+                .with_velocities(st.velocity, st.angular_velocity);
+            b.reset_load_history();
+            *c = st.change;
+        }
+        self.band_prev.runs.clear();
+        self.band_prev.start.clear();
+        Ok(())
+    }
+
+    /// Time spent per phase of the step (see [`StepTimings`]).
+    pub fn timings(&self) -> &StepTimings {
+        &self.timings
+    }
+
+    /// Restarts the phase timers.
+    pub fn reset_timings(&mut self) {
+        self.timings = StepTimings::default();
+    }
+
     /// The interior-fluid sums of body `b` from the last step.
     pub fn interior_momentum(&self, b: usize) -> &InteriorMomentum {
         &self.interior[b]
@@ -440,16 +577,27 @@ impl<T: Real + Planes> Coupled<T> {
     /// The stencils could not be built (a marker outside the box on a walled axis, or a
     /// non-finite position); nothing has been changed then.
     pub fn step(&mut self) -> Result<(), CouplingError> {
-        // 1. Marker positions and velocities.
-        let (position, solid) = (&mut self.position, &mut self.solid);
-        for (b, body) in self.bodies.iter().enumerate() {
-            let range = self.offsets[b]..self.offsets[b + 1];
-            for ((m, x), u) in self.markers[b].iter().zip(&mut position[range.clone()]).zip(&mut solid[range])
-            {
-                let (xw, _n, uw) = body.marker_world(m);
-                *x = [xw.x, xw.y, xw.z];
-                *u = [uw.x, uw.y, uw.z];
-            }
+        let mut clock = std::time::Instant::now();
+        let mut lap = |slot: &mut f64| {
+            let now = std::time::Instant::now();
+            *slot += (now - clock).as_secs_f64();
+            clock = now;
+        };
+        let mut tm = self.timings;
+        // 1. Marker positions and velocities (parallel over markers).
+        {
+            let (bodies, markers, offsets, owner) = (&self.bodies, &self.markers, &self.offsets, &self.owner);
+            self.position
+                .par_iter_mut()
+                .zip(self.solid.par_iter_mut())
+                .zip(owner.par_iter())
+                .enumerate()
+                .for_each(|(i, ((x, u), &b))| {
+                    let b = b as usize;
+                    let (xw, _n, uw) = bodies[b].marker_world(&markers[b][i - offsets[b]]);
+                    *x = [xw.x, xw.y, xw.z];
+                    *u = [uw.x, uw.y, uw.z];
+                });
         }
         // 2. Stencils and band.
         let grid = self.fluid.grid();
@@ -461,6 +609,7 @@ impl<T: Real + Planes> Coupled<T> {
             .zip(self.bodies.par_iter())
             .for_each(|(out, body)| band_runs(body, grid, periodic, hw, out));
         self.band.bucket(grid.nz);
+        lap(&mut tm.geometry);
         // 3. Interior momentum.
         {
             let fluid = &self.fluid;
@@ -468,6 +617,7 @@ impl<T: Real + Planes> Coupled<T> {
                 im.before = interior_sums(fluid, body, periodic);
             });
         }
+        lap(&mut tm.interior);
         // 4. Clear.
         {
             let layout = self.fluid.padded_layout();
@@ -502,8 +652,10 @@ impl<T: Real + Planes> Coupled<T> {
             let sink = FieldSink { writer: self.fluid.force_field_writer(), layout };
             spread_into(&self.increment, &self.stencils, &sink);
         }
+        lap(&mut tm.forcing);
         // 6. Fluid step.
         self.fluid.step();
+        lap(&mut tm.fluid);
         // 7. Interior sums after, and loads.
         {
             let fluid = &self.fluid;
@@ -511,22 +663,27 @@ impl<T: Real + Planes> Coupled<T> {
                 im.after = interior_sums(fluid, body, periodic);
             });
         }
-        for (b, body) in self.bodies.iter().enumerate() {
-            let mut f = Vec3::zeros();
-            let mut t = Vec3::zeros();
-            for m in self.offsets[b]..self.offsets[b + 1] {
-                let fm = Vec3::from(self.marker_force[m]);
-                let r = Vec3::from(self.position[m]) - body.position;
-                f -= fm;
-                t -= r.cross(&fm);
-            }
-            let im = &self.interior[b];
-            let (u, w) = (body.velocity, body.angular_velocity);
-            let inertia_fluid = body.inertia_world() / body.density();
-            let fi = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
-            let ti = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
-            self.loads[b] =
-                BodyLoads { ibm_force: f, ibm_torque: t, interior_force: fi, interior_torque: ti };
+        lap(&mut tm.interior);
+        {
+            let (bodies, interior, offsets) = (&self.bodies, &self.interior, &self.offsets);
+            let (marker_force, position) = (&self.marker_force, &self.position);
+            self.loads.par_iter_mut().enumerate().for_each(|(b, loads)| {
+                let body = &bodies[b];
+                let mut f = Vec3::zeros();
+                let mut t = Vec3::zeros();
+                for m in offsets[b]..offsets[b + 1] {
+                    let fm = Vec3::from(marker_force[m]);
+                    let r = Vec3::from(position[m]) - body.position;
+                    f -= fm;
+                    t -= r.cross(&fm);
+                }
+                let im = &interior[b];
+                let (u, w) = (body.velocity, body.angular_velocity);
+                let inertia_fluid = body.inertia_world() / body.density();
+                let fi = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
+                let ti = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
+                *loads = BodyLoads { ibm_force: f, ibm_torque: t, interior_force: fi, interior_torque: ti };
+            });
         }
         // 8. Bodies.
         let g = self.gravity;
@@ -551,6 +708,9 @@ impl<T: Real + Planes> Coupled<T> {
             }
         }
         std::mem::swap(&mut self.band, &mut self.band_prev);
+        lap(&mut tm.bodies);
+        tm.steps += 1;
+        self.timings = tm;
         Ok(())
     }
 

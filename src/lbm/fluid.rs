@@ -324,6 +324,11 @@ impl<T: Real + Planes> Fluid<T> {
         }
     }
 
+    /// Sets the whole force density field to zero (if it is on).
+    pub fn clear_force_field(&mut self) {
+        self.force.par_chunks_mut(1 << 16).for_each(|c| c.iter_mut().for_each(|v| *v = T::ZERO));
+    }
+
     /// Whether the force density field is on.
     pub fn force_field_enabled(&self) -> bool {
         !self.force.is_empty()
