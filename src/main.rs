@@ -216,6 +216,55 @@ fn describe(c: &Case) -> String {
             );
         }
     }
+    if c.has_particles() {
+        let g = c.gravity();
+        let _ = writeln!(s, "gravity     [{}, {}, {}]", g[0], g[1], g[2]);
+        let ibm = c.ibm();
+        let _ = writeln!(
+            s,
+            "ibm         {} kernel, {} forcing iteration(s), marker spacing {}",
+            ibm.kernel.name(),
+            ibm.iterations,
+            ibm.marker_spacing
+        );
+        for (i, p) in c.particles.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "particle    [{i}] {} d {}{}, density {}, at [{}, {}, {}], {}",
+                p.shape.name(),
+                p.diameter,
+                p.length.map(|l| format!(" l {l}")).unwrap_or_default(),
+                p.density,
+                p.position[0],
+                p.position[1],
+                p.position[2],
+                p.motion.name()
+            );
+        }
+        for (k, r) in c.random_particles.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "random      [{k}] {} x {} d {}{}, density {}, seed {}, clearance {}, {}",
+                c.random_count(k),
+                r.shape.name(),
+                r.diameter,
+                r.length.map(|l| format!(" l {l}")).unwrap_or_default(),
+                r.density,
+                r.seed,
+                r.clearance,
+                r.motion.name()
+            );
+        }
+        if let Ok(inits) = c.particle_inits() {
+            let solids: f64 = inits.iter().map(|p| p.volume()).sum();
+            let _ = writeln!(
+                s,
+                "particles   {} in all, solids volume fraction {:.4} of the box",
+                inits.len(),
+                solids / g_nodes(c)
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "run         {} steps, output every {} ({} rows), Mach limit {}",
@@ -225,6 +274,11 @@ fn describe(c: &Case) -> String {
         c.run.mach_limit
     );
     s
+}
+
+/// Box volume `nx ny nz` (lattice units).
+fn g_nodes(c: &Case) -> f64 {
+    c.grid().nodes() as f64
 }
 
 fn parse_size(s: &str) -> anyhow::Result<slurry::lattice::Grid> {

@@ -10,6 +10,12 @@
 //! (atomically, after a health check) every that many steps; `--resume` restores it after a
 //! kill at any moment and continues bitwise identically.
 //!
+//! **Particles.** When the case has particles, the fluid and the bodies of
+//! [`Case::bodies`] are stepped together by [`Coupled`] (options from
+//! [`Case::coupling_params`]); at every output step the time series gains the particle
+//! aggregates and `particles.h5` a frame ([`ParticleHistoryWriter`]). Resuming such a run is
+//! refused for now ([`BadResume`]): checkpoints hold the fluid only.
+//!
 //! Numerical trouble (non-finite populations, non-positive density, Mach number above
 //! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
 //! the time series up to the last healthy output is kept.
@@ -23,9 +29,10 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, Precision};
+use crate::coupling::{Coupled, CouplingError};
 use crate::io::{
-    atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, TimeSeriesRow,
-    TimeSeriesWriter,
+    atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
+    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::kernel::Planes;
@@ -45,6 +52,8 @@ pub mod files {
     pub const CASE: &str = "case.toml";
     /// The latest checkpoint (see [`crate::io::checkpoint`]).
     pub const CHECKPOINT: &str = "checkpoint.h5";
+    /// Particle histories (see [`crate::io::particles`]); only for cases with particles.
+    pub const PARTICLES_H5: &str = "particles.h5";
 }
 
 /// Options that do not change the physics.
@@ -88,6 +97,10 @@ pub struct RunSummary {
     pub max_mach: f64,
     /// Number of time-series rows written.
     pub output_rows: u64,
+    /// Number of particles (0 for a fluid-only case).
+    pub particles: usize,
+    /// Number of surface markers over all particles.
+    pub markers: usize,
 }
 
 /// The run stopped for numerical trouble. Its Display is the diagnosis.
@@ -104,15 +117,80 @@ pub struct NumericalError {
     pub timeseries: PathBuf,
 }
 
-/// A resume that cannot proceed because the checkpoint belongs to another case.
+/// A resume that cannot proceed: the checkpoint belongs to another case, or the case has
+/// particles (whose state checkpoints do not hold yet).
 #[derive(Clone, Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadResume(pub String);
 
+/// The fluid alone, or the fluid coupled with particles.
+enum Solver<T: Real + Planes> {
+    Fluid(Box<Fluid<T>>),
+    Coupled(Box<Coupled<T>>),
+}
+
+impl<T: Real + Planes> Solver<T> {
+    fn fluid(&self) -> &Fluid<T> {
+        match self {
+            Solver::Fluid(f) => f,
+            Solver::Coupled(c) => c.fluid(),
+        }
+    }
+
+    fn fluid_mut(&mut self) -> &mut Fluid<T> {
+        match self {
+            Solver::Fluid(f) => f,
+            Solver::Coupled(c) => c.fluid_mut(),
+        }
+    }
+
+    fn run(&mut self, n: u64) -> Result<(), CouplingError> {
+        match self {
+            Solver::Fluid(f) => {
+                f.run(n);
+                Ok(())
+            }
+            Solver::Coupled(c) => c.run(n),
+        }
+    }
+
+    /// The particles' state now, with the hydrodynamic loads of the last step.
+    fn particle_frame(&self) -> Option<ParticleFrame> {
+        let Solver::Coupled(c) = self else { return None };
+        let step = c.fluid().time();
+        let bodies = c.bodies();
+        let v3 = |v: &crate::rigid::Vec3| [v.x, v.y, v.z];
+        Some(ParticleFrame {
+            step,
+            time: step as f64,
+            position: bodies.iter().map(|b| v3(&b.position)).collect(),
+            quaternion: bodies
+                .iter()
+                .map(|b| {
+                    let q = b.orientation.quaternion();
+                    [q.w, q.i, q.j, q.k]
+                })
+                .collect(),
+            velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
+            angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
+            force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
+            torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
+        })
+    }
+}
+
 /// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
 /// run there are replaced). Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
-    case.validate().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    if opts.resume && case.has_particles() {
+        return Err(BadResume(
+            "--resume: a case with particles cannot be resumed yet (checkpoints hold the fluid state only); \
+             run it again without --resume"
+                .into(),
+        )
+        .into());
+    }
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     match case.fluid.precision {
@@ -144,11 +222,24 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let start = Instant::now();
     let grid = case.grid();
     let nodes = grid.nodes() as f64;
+    let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     let mut fluid =
         Fluid::<T>::new(grid, case.fluid_params(), case.boundaries()).context("cannot set up the fluid")?;
     fluid.initialize(|x, y, z| case.initial_state(x, y, z));
+    let mut solver = if inits.is_empty() {
+        Solver::Fluid(Box::new(fluid))
+    } else {
+        let bodies = inits.iter().map(|p| p.body()).collect();
+        let coupled = Coupled::new(fluid, bodies, case.coupling_params())
+            .map_err(|e| anyhow::anyhow!("cannot couple the particles: {e}"))?;
+        Solver::Coupled(Box::new(coupled))
+    };
+    let markers = match &solver {
+        Solver::Coupled(c) => c.marker_count(),
+        Solver::Fluid(_) => 0,
+    };
 
-    let case_text = toml::to_string(case).context("cannot serialise the case")?;
+    let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
     let case_path = out_dir.join(files::CASE);
     atomic_write_bytes(&case_path, case_text.as_bytes())
         .with_context(|| format!("cannot write {}", case_path.display()))?;
@@ -165,11 +256,33 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
             ))
             .into());
         }
-        fluid.restore(&ck.state).context("cannot restore the checkpoint")?;
-        TimeSeriesWriter::resume(&ts_path, fluid.time())
+        solver.fluid_mut().restore(&ck.state).context("cannot restore the checkpoint")?;
+        TimeSeriesWriter::resume(&ts_path, solver.fluid().time())
             .with_context(|| format!("cannot resume {}", ts_path.display()))?
     } else {
-        TimeSeriesWriter::create(&ts_path).with_context(|| format!("cannot write {}", ts_path.display()))?
+        TimeSeriesWriter::create_with(&ts_path, !inits.is_empty())
+            .with_context(|| format!("cannot write {}", ts_path.display()))?
+    };
+    let ph_path = out_dir.join(files::PARTICLES_H5);
+    let mut history = if inits.is_empty() {
+        None
+    } else {
+        let statics: Vec<ParticleStatic> = inits
+            .iter()
+            .map(|p| ParticleStatic {
+                shape: p.shape.name(),
+                diameter: p.diameter,
+                length: p.length.unwrap_or(f64::NAN),
+                density: p.density,
+                volume: p.volume(),
+                mass: p.density * p.volume(),
+                motion: p.motion.name(),
+            })
+            .collect();
+        Some(
+            ParticleHistoryWriter::create(&ph_path, grid, case.gravity(), &statics)
+                .with_context(|| format!("cannot write {}", ph_path.display()))?,
+        )
     };
 
     let limit = case.run.mach_limit;
@@ -177,16 +290,17 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let every = case.run.output_every;
     let ck_every = case.run.checkpoint_every;
     let pb = progress_bar(total, opts.quiet);
-    pb.set_position(fluid.time());
+    pb.set_position(solver.fluid().time());
     let mut step_time = Duration::ZERO;
     let mut max_mach: f64 = 0.0;
     let mut rows = 0u64;
-    let mut last_good = fluid.time();
+    let mut last_good = solver.fluid().time();
     let mut initial_mass = f64::NAN;
     let mut block_mlups = 0.0;
-    let resumed_at = opts.resume.then(|| fluid.time());
+    let resumed_at = opts.resume.then(|| solver.fluid().time());
 
     loop {
+        let fluid = solver.fluid();
         let step = fluid.time();
         let output_due = step.is_multiple_of(every) || step == total;
         let checkpoint_due = ck_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
@@ -203,6 +317,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
             }
             // The row of the step a resume starts from is already in the time series.
             if output_due && resumed_at != Some(step) {
+                let frame = solver.particle_frame();
                 ts.append(&TimeSeriesRow {
                     step,
                     time: step as f64,
@@ -210,8 +325,12 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     momentum: fluid.total_momentum(),
                     max_mach: health.max_mach,
                     mlups: block_mlups,
+                    particles: frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity)),
                 })
                 .with_context(|| format!("cannot write {}", ts_path.display()))?;
+                if let (Some(h), Some(frame)) = (history.as_mut(), frame) {
+                    h.append(&frame).with_context(|| format!("cannot write {}", ph_path.display()))?;
+                }
                 rows += 1;
             }
             if checkpoint_due && resumed_at != Some(step) {
@@ -230,14 +349,21 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         }
         let block = next.min(total) - step;
         let t0 = Instant::now();
-        fluid.run(block);
+        if let Err(e) = solver.run(block) {
+            pb.abandon();
+            return Err(anyhow::anyhow!(
+                "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
+                next.min(total)
+            ));
+        }
         let dt = t0.elapsed();
         step_time += dt;
         block_mlups = nodes * block as f64 / dt.as_secs_f64().max(1e-9) / 1e6;
         pb.set_message(format!("{block_mlups:.1} MLUPS"));
-        pb.set_position(fluid.time());
+        pb.set_position(solver.fluid().time());
     }
     pb.finish_and_clear();
+    let fluid = solver.fluid();
     ts.sync().with_context(|| format!("cannot sync {}", ts_path.display()))?;
 
     let (rho, u) = fluid.fields();
@@ -265,6 +391,8 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         final_momentum: fluid.total_momentum(),
         max_mach,
         output_rows: rows,
+        particles: inits.len(),
+        markers,
     };
     let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
     let sp = out_dir.join(files::SUMMARY);

@@ -112,3 +112,285 @@ fn examples_parse_and_validate() {
     }
     assert!(n >= 3, "expected at least three example cases, found {n}");
 }
+
+// ---- particles ---------------------------------------------------------------------------
+
+/// A 40 x 32 x 48 box, periodic along x, walls elsewhere, with one valid cylinder and one
+/// valid random population; tests replace one line (or append one).
+const PARTICLES: &str = r#"gravity = [0.0, 0.0, -4.0e-5]
+
+[domain]
+nx = 40
+ny = 32
+nz = 48
+
+[fluid]
+nu = 0.05
+
+[boundaries]
+x_min = "periodic"
+x_max = "periodic"
+y_min = "no_slip"
+y_max = "no_slip"
+z_min = "no_slip"
+z_max = "no_slip"
+
+[run]
+steps = 10
+output_every = 5
+
+[ibm]
+kernel = "roma3"
+iterations = 1
+marker_spacing = 0.7
+
+[[particles]]
+shape = "cylinder"
+diameter = 6.0
+length = 12.0
+density = 1.25
+position = [20.0, 16.0, 30.0]
+axis = [0.0, 0.0, 1.0]
+motion = "free"
+
+[[random_particles]]
+shape = "sphere"
+diameter = 4.0
+density = 1.25
+count = 10
+seed = 1
+"#;
+
+/// `PARTICLES` with the line starting with `prefix` (the first one) replaced by `line`.
+fn p_edit(prefix: &str, line: &str) -> String {
+    let mut done = false;
+    let out: Vec<String> = PARTICLES
+        .lines()
+        .map(|l| {
+            if !done && l.starts_with(prefix) {
+                done = true;
+                line.to_string()
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    assert!(done, "no line starting with {prefix}");
+    out.join("\n") + "\n"
+}
+
+/// `PARTICLES` with the random population's lines starting with `prefix` replaced.
+fn r_edit(prefix: &str, line: &str) -> String {
+    let (head, tail) = PARTICLES.split_once("[[random_particles]]").unwrap();
+    let tail: Vec<String> =
+        tail.lines().map(|l| if l.starts_with(prefix) { line.to_string() } else { l.to_string() }).collect();
+    format!("{head}[[random_particles]]{}\n", tail.join("\n"))
+}
+
+fn rejects(text: &str, needles: &[&str]) {
+    let (msg, path, _d) = error_of(text);
+    assert_mentions(&msg, &path, needles);
+    assert!(!msg.trim_end().contains('\n'), "not one line: {msg}");
+}
+
+#[test]
+fn particle_case_parses() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.toml");
+    std::fs::write(&path, PARTICLES).unwrap();
+    let c = Case::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(c.particle_count(), 11);
+    assert_eq!(c.bodies().unwrap().len(), 11);
+}
+
+#[test]
+fn unknown_particle_keys_name_the_entry() {
+    rejects(
+        &p_edit("diameter", "radius = 3.0"),
+        &["unknown key `particles[0].radius`", "allowed: shape, diameter"],
+    );
+    rejects(&r_edit("seed", "seed = 1\nnumber = 3"), &["unknown key `random_particles[0].number`", "count"]);
+    rejects(&p_edit("iterations", "iterations = 1\nsmooth = true"), &["unknown key `ibm.smooth`", "kernel"]);
+    rejects(
+        &PARTICLES.replace("[fluid]\n", "[fluid]\ngravity = [0.0, 0.0, -1.0]\n"),
+        &["unknown key `fluid.gravity`", "gravity is a top-level key"],
+    );
+    rejects(
+        &PARTICLES.replace("[[particles]]", "[particles]"),
+        &["`particles` at line", "expected a sequence", "[[particles]]"],
+    );
+}
+
+#[test]
+fn gravity_must_be_finite() {
+    rejects(&p_edit("gravity", "gravity = [0.0, nan, 0.0]"), &["gravity = [0, NaN, 0]", "finite"]);
+}
+
+#[test]
+fn ibm_ranges() {
+    rejects(&p_edit("kernel", "kernel = \"gauss\""), &["ibm.kernel", "gauss", "linear", "roma3", "peskin4"]);
+    rejects(&p_edit("iterations", "iterations = 0"), &["ibm.iterations = 0", ">= 1"]);
+    rejects(&p_edit("marker_spacing", "marker_spacing = 0.2"), &["ibm.marker_spacing = 0.2", "[0.3, 1]"]);
+    rejects(&p_edit("marker_spacing", "marker_spacing = 1.5"), &["ibm.marker_spacing = 1.5", "[0.3, 1]"]);
+}
+
+#[test]
+fn particle_shape_and_size() {
+    rejects(&p_edit("shape", "shape = \"cube\""), &["particles[0].shape", "cube", "sphere", "cylinder"]);
+    rejects(&p_edit("diameter", ""), &["missing key `particles[0].diameter`"]);
+    rejects(&p_edit("diameter", "diameter = 0.0"), &["particles[0].diameter = 0", "> 0"]);
+    rejects(&p_edit("length", "length = -1.0"), &["particles[0].length = -1", "> 0"]);
+    rejects(&p_edit("length", ""), &["missing key `particles[0].length`", "cylinder"]);
+    rejects(
+        &p_edit("shape", "shape = \"sphere\""),
+        &["particles[0].length = 12", "only allowed with shape = \"cylinder\""],
+    );
+    rejects(&p_edit("density", "density = 0.0"), &["particles[0].density = 0", "> 0", "density ratio"]);
+    rejects(&p_edit("density", "density = inf"), &["particles[0].density = inf", "finite"]);
+    rejects(
+        &p_edit("motion", "motion = \"floating\""),
+        &["particles[0].motion", "floating", "free", "fixed", "prescribed"],
+    );
+}
+
+#[test]
+fn particle_orientation() {
+    rejects(
+        &p_edit("axis", "axis = [0.0, 0.0, 1.0]\norientation = [1.0, 0.0, 0.0, 0.0]"),
+        &["particles[0].axis = [0, 0, 1]", "either orientation", "not both"],
+    );
+    rejects(
+        &p_edit("axis", "orientation = [1.0, 0.0, 0.0, 0.01]"),
+        &["particles[0].orientation = [1, 0, 0, 0.01]", "unit quaternion", "|norm - 1| <= 0.000001"],
+    );
+    rejects(&p_edit("axis", "axis = [0.0, 0.0, 0.0]"), &["particles[0].axis = [0, 0, 0]", "non-zero"]);
+    // A quaternion within 1e-6 of unit length is normalised.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("q.toml");
+    std::fs::write(&path, p_edit("axis", "orientation = [1.0000005, 0.0, 0.0, 0.0]")).unwrap();
+    Case::from_file(&path).unwrap();
+}
+
+#[test]
+fn particle_velocities() {
+    rejects(
+        &p_edit("motion", "motion = \"fixed\"\nvelocity = [0.01, 0.0, 0.0]"),
+        &["particles[0].velocity = [0.01, 0, 0]", "\"fixed\" does not move"],
+    );
+    rejects(
+        &p_edit("motion", "motion = \"fixed\"\nangular_velocity = [0.0, 0.0, 0.01]"),
+        &["particles[0].angular_velocity = [0, 0, 0.01]", "\"fixed\" does not move"],
+    );
+    rejects(&p_edit("motion", "velocity = [nan, 0.0, 0.0]"), &["particles[0].velocity", "finite"]);
+    rejects(
+        &p_edit("motion", "motion = \"prescribed\"\nvelocity = [0.2, 0.0, 0.0]"),
+        &["particles[0].velocity = [0.2, 0, 0]", "Mach", "run.mach_limit = 0.3"],
+    );
+    rejects(
+        &p_edit("motion", "motion = \"prescribed\"\nangular_velocity = [0.0, 0.0, 0.03]"),
+        &["particles[0].angular_velocity = [0, 0, 0.03]", "surface point", "run.mach_limit = 0.3"],
+    );
+}
+
+#[test]
+fn particles_must_lie_inside_the_box() {
+    // z: the cylinder (half length 6) at z = 5 reaches -1; allowed 0 .. 47.
+    rejects(
+        &p_edit("position", "position = [20.0, 16.0, 5.0]"),
+        &["particles[0].position = [20, 16, 5]", "within [0, 47]", "z must be in [6.0000, 41.0000]"],
+    );
+    rejects(
+        &p_edit("position", "position = [20.0, 29.0, 30.0]"),
+        &["particles[0].position = [20, 29, 30]", "on y", "within [0, 31]"],
+    );
+    rejects(&p_edit("length", "length = 60.0"), &["particles[0].position", "does not fit between the walls"]);
+    // Periodic x: the centre must lie in the period; the particle must be shorter than it.
+    rejects(
+        &p_edit("position", "position = [40.0, 16.0, 30.0]"),
+        &["particles[0].position = [40, 16, 30]", "periodic x axis", "[-0.5, 39.5)"],
+    );
+    rejects(
+        &p_edit("axis", "axis = [1.0, 0.0, 0.0]").replace("length = 12.0", "length = 41.0"),
+        &["particles[0].position", "periodic x axis", "shorter than the period 40"],
+    );
+    rejects(&p_edit("position", "position = [20.0, inf, 30.0]"), &["particles[0].position", "finite"]);
+}
+
+#[test]
+fn overlapping_particles_name_both() {
+    let second = "\n[[particles]]\nshape = \"sphere\"\ndiameter = 6.0\ndensity = 1.0\nposition = [25.5, 16.0, 30.0]\nmotion = \"fixed\"\n";
+    let text = PARTICLES.replace("[[random_particles]]", &format!("{second}\n[[random_particles]]"));
+    rejects(&text, &["particles[1].position = [25.5, 16, 30]", "overlaps particles[0]", "[20, 16, 30]"]);
+    // 0.5 further out they are clear (the cylinder's radius 3 + the sphere's 3 = 6).
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ok.toml");
+    std::fs::write(&path, text.replace("[25.5, 16.0, 30.0]", "[26.5, 16.0, 30.0]")).unwrap();
+    Case::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
+    // Through the periodic x boundary.
+    let wrap = PARTICLES.replace("position = [20.0, 16.0, 30.0]", "position = [1.0, 16.0, 30.0]").replace(
+        "[[random_particles]]",
+        &format!("{}\n[[random_particles]]", second.replace("25.5", "37.0")),
+    );
+    rejects(&wrap, &["particles[1].position = [37, 16, 30]", "overlaps particles[0]"]);
+}
+
+#[test]
+fn random_population_rules() {
+    rejects(
+        &r_edit("count", "count = 10\nvolume_fraction = 0.1"),
+        &["random_particles[0].volume_fraction = 0.1", "not both"],
+    );
+    rejects(&r_edit("count", ""), &["missing key `random_particles[0].count`", "volume_fraction"]);
+    rejects(&r_edit("count", "count = 0"), &["random_particles[0].count = 0", ">= 1"]);
+    rejects(&r_edit("count", "count = -3"), &["random_particles[0].count", "-3"]);
+    rejects(
+        &r_edit("count", "volume_fraction = 0.7"),
+        &["random_particles[0].volume_fraction = 0.7", "(0, 0.6]"],
+    );
+    rejects(
+        &r_edit("count", "volume_fraction = 0.0"),
+        &["random_particles[0].volume_fraction = 0", "(0, 0.6]"],
+    );
+    rejects(
+        &r_edit("count", "volume_fraction = 1e-6"),
+        &["random_particles[0].volume_fraction = 0.000001", "rounds to 0"],
+    );
+    rejects(&r_edit("seed", "seed = 1\nclearance = 0.5"), &["random_particles[0].clearance = 0.5", ">= 1"]);
+    rejects(&r_edit("seed", "seed = -1"), &["random_particles[0].seed", "-1"]);
+    rejects(&r_edit("seed", ""), &["missing key `random_particles[0].seed`"]);
+    rejects(
+        &r_edit("seed", "seed = 1\nmotion = \"prescribed\""),
+        &["random_particles[0].motion = \"prescribed\"", "\"free\" or \"fixed\""],
+    );
+    rejects(&r_edit("shape", "shape = \"cylinder\""), &["missing key `random_particles[0].length`"]);
+    rejects(&r_edit("diameter", "diameter = -4.0"), &["random_particles[0].diameter = -4", "> 0"]);
+}
+
+#[test]
+fn random_region_must_keep_off_the_walls() {
+    let region = |r: &str| r_edit("seed", &format!("seed = 1\nregion = {r}"));
+    rejects(
+        &region("[[0.0, 0.0, 0.5], [39.0, 30.5, 46.5]]"),
+        &["random_particles[0].region = [[0, 0, 0.5], [39, 30.5, 46.5]]", "on y", "0.5 <= lo < hi <= 30.5"],
+    );
+    rejects(
+        &region("[[-1.0, 0.5, 0.5], [39.0, 30.5, 46.5]]"),
+        &["random_particles[0].region", "on x", "-0.5 <= lo < hi <= 39.5"],
+    );
+    rejects(
+        &region("[[0.0, 0.5, 20.0], [39.0, 30.5, 10.0]]"),
+        &["random_particles[0].region", "on z", "lo < hi"],
+    );
+}
+
+#[test]
+fn impossible_placement_says_how_many_were_placed() {
+    rejects(
+        &r_edit("count", "count = 2000"),
+        &["random_particles[0].count = 2000", "placed only", "of 2000", "attempts"],
+    );
+    rejects(
+        &r_edit("count", "volume_fraction = 0.5"),
+        &["random_particles[0].volume_fraction = 0.5", "placed only", "lower the count or volume fraction"],
+    );
+}

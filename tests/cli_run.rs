@@ -165,3 +165,111 @@ fn zero_threads_is_a_usage_error() {
     let o = slurry(&["run", "examples/poiseuille.toml", "--out", "/tmp/unused", "--threads", "0"]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
 }
+
+/// A fixed sphere in a force-driven periodic channel and a prescribed sphere moving through
+/// it: 20 steps, output every 10.
+const SPHERES: &str = r#"
+[domain]
+nx = 16
+ny = 16
+nz = 24
+
+[fluid]
+nu = 0.1
+body_force = [1e-5, 0.0, 0.0]
+
+[boundaries]
+x_min = "periodic"
+x_max = "periodic"
+y_min = "periodic"
+y_max = "periodic"
+z_min = "no_slip"
+z_max = "no_slip"
+
+[[particles]]
+shape = "sphere"
+diameter = 6.0
+density = 1.0
+position = [4.0, 8.0, 8.0]
+motion = "fixed"
+
+[[particles]]
+shape = "sphere"
+diameter = 4.0
+density = 1.5
+position = [12.0, 8.0, 16.0]
+velocity = [0.01, 0.0, 0.0]
+motion = "prescribed"
+
+[run]
+steps = 20
+output_every = 10
+"#;
+
+#[test]
+fn particles_write_a_readable_history() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("spheres.toml");
+    std::fs::write(&case, SPHERES).unwrap();
+    let out = dir.path().join("out");
+    let o =
+        slurry(&["run", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet", "--threads", "2"]);
+    assert!(o.status.success(), "status {:?}: {}", o.status, stderr(&o));
+
+    let f = hdf5::File::open(out.join("particles.h5")).unwrap();
+    for (name, k) in [
+        ("position", 3),
+        ("quaternion", 4),
+        ("velocity", 3),
+        ("angular_velocity", 3),
+        ("force", 3),
+        ("torque", 3),
+    ] {
+        assert_eq!(f.dataset(name).unwrap().shape(), vec![3, 2, k], "{name}");
+    }
+    assert_eq!(f.dataset("step").unwrap().read_raw::<u64>().unwrap(), vec![0, 10, 20]);
+    assert_eq!(f.dataset("time").unwrap().read_raw::<f64>().unwrap(), vec![0.0, 10.0, 20.0]);
+    for name in ["shape", "diameter", "length", "density", "volume", "mass", "motion"] {
+        assert_eq!(f.dataset(name).unwrap().shape(), vec![2], "{name}");
+    }
+    let motion: Vec<hdf5::types::VarLenUnicode> = f.dataset("motion").unwrap().read_raw().unwrap();
+    assert_eq!([motion[0].as_str(), motion[1].as_str()], ["fixed", "prescribed"]);
+    assert_eq!(f.dataset("diameter").unwrap().read_raw::<f64>().unwrap(), vec![6.0, 4.0]);
+    let units: hdf5::types::VarLenUnicode = f.attr("units").unwrap().read_scalar().unwrap();
+    assert_eq!(units.as_str(), "lattice: Δ, Δt, ρ_f");
+
+    // The prescribed sphere has moved 20 × 0.01 along x; the fixed one has not.
+    let pos: Vec<f64> = f.dataset("position").unwrap().read_raw().unwrap();
+    let at = |frame: usize, p: usize, k: usize| pos[(frame * 2 + p) * 3 + k];
+    assert_eq!([at(2, 0, 0), at(2, 0, 1), at(2, 0, 2)], [4.0, 8.0, 8.0]);
+    assert!((at(2, 1, 0) - 12.2).abs() < 1e-12, "{}", at(2, 1, 0));
+    let q: Vec<f64> = f.dataset("quaternion").unwrap().read_raw().unwrap();
+    assert_eq!(&q[..4], &[1.0, 0.0, 0.0, 0.0]);
+    // The flow drags the fixed sphere along +x; zero force at step 0.
+    let force: Vec<f64> = f.dataset("force").unwrap().read_raw().unwrap();
+    assert!(force.iter().all(|x| x.is_finite()));
+    assert!(force[..6].iter().all(|&x| x == 0.0));
+    assert!(force[2 * 6] > 0.0, "drag on the fixed sphere {}", force[2 * 6]);
+
+    // The time series has the particle columns before mlups.
+    let csv = std::fs::read_to_string(out.join("timeseries.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert!(lines[0].ends_with(",max_mach,particle_mean_z,particle_max_speed,mlups"), "{}", lines[0]);
+    assert_eq!(lines.len(), 4);
+    let cols: Vec<&str> = lines[1].split(',').collect();
+    assert_eq!(cols[7].parse::<f64>().unwrap(), 12.0);
+    assert_eq!(cols[8].parse::<f64>().unwrap(), 0.01);
+
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["particles"], 2);
+    assert!(s["markers"].as_u64().unwrap() > 100);
+    let as_run = std::fs::read_to_string(out.join("case.toml")).unwrap();
+    assert!(as_run.contains("[[particles]]") && as_run.contains("[ibm]"), "{as_run}");
+    assert_no_temp_files(&out);
+
+    // Resuming a particle case is refused as bad input.
+    let o = slurry(&["run", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet", "--resume"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--resume: a case with particles cannot be resumed"), "{}", stderr(&o));
+}

@@ -65,19 +65,46 @@ fn header_name(line: &str) -> Option<String> {
     Some(rest[..end].trim().trim_matches('[').trim().to_string())
 }
 
+/// The section a line belongs to: the name of the last table header at or above it, with
+/// the entry's index for arrays of tables (`[[particles]]` → `particles[2]` for the third).
+fn section_at(text: &str, line_end: usize) -> Option<String> {
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    let mut current = None;
+    for line in text[..line_end].lines() {
+        let Some(name) = header_name(line) else { continue };
+        if line.trim_start().starts_with("[[") {
+            let i = match counts.iter_mut().find(|(n, _)| *n == name) {
+                Some((_, c)) => {
+                    *c += 1;
+                    *c - 1
+                }
+                None => {
+                    counts.push((name.clone(), 1));
+                    0
+                }
+            };
+            current = Some(format!("{name}[{i}]"));
+        } else {
+            current = Some(name);
+        }
+    }
+    current
+}
+
 /// Best-effort dotted key (`section.key`) of the line that contains byte `offset`: the last
 /// table header above it and the key left of the line's first `=`. On a header line it is
 /// the header's name; on a line with no `=` (continuation of a multi-line array) only the
-/// section. The line and column are always reported beside it, so a miss costs little.
+/// section. Entries of arrays of tables carry their index (`particles[2].diameter`). The line
+/// and column are always reported beside it, so a miss costs little.
 pub(crate) fn key_at(text: &str, offset: usize) -> Option<String> {
     let offset = floor_char_boundary(text, offset.min(text.len()));
     let line_start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
     let line_end = text[line_start..].find('\n').map_or(text.len(), |i| line_start + i);
     let line = &text[line_start..line_end];
-    if let Some(h) = header_name(line) {
-        return Some(h);
+    let section = section_at(text, line_end);
+    if header_name(line).is_some() {
+        return section;
     }
-    let section = text[..line_start].lines().rev().find_map(header_name);
     let key = line
         .split_once('=')
         .map(|(k, _)| k.trim().trim_matches(|c| c == '"' || c == '\'').to_string())
@@ -116,5 +143,16 @@ mod tests {
         assert_eq!(key_at(t, at("[fluid]")).as_deref(), Some("fluid"));
         assert_eq!(key_at(t, at(" 1,")).as_deref(), Some("fluid"));
         assert_eq!(line_column(t, at("0.5")), (5, 9));
+    }
+
+    #[test]
+    fn key_at_numbers_arrays_of_tables() {
+        let t = "[[p]]\nd = 1\n[[q]]\nd = 2\n[[p]]\nd = 3\n[r]\nd = 4\n";
+        let at = |s: &str| t.find(s).unwrap();
+        assert_eq!(key_at(t, at("1")).as_deref(), Some("p[0].d"));
+        assert_eq!(key_at(t, at("2")).as_deref(), Some("q[0].d"));
+        assert_eq!(key_at(t, at("3")).as_deref(), Some("p[1].d"));
+        assert_eq!(key_at(t, at("4")).as_deref(), Some("r.d"));
+        assert_eq!(key_at(t, at("[[p]]\nd = 3")).as_deref(), Some("p[1]"));
     }
 }

@@ -29,6 +29,10 @@
 //! output_every = 200
 //! ```
 //!
+//! Particles (module [`particles`]): a top-level `gravity = [gx, gy, gz]`, an `[ibm]` section
+//! (kernel, forcing iterations, marker spacing), explicit `[[particles]]` and random
+//! `[[random_particles]]` populations, placed without overlap by [`placement`].
+//!
 //! [`Case::from_file`] reads and checks a file in four stages, each reporting the file name,
 //! the dotted key and what is allowed: TOML syntax; unknown keys (with the list of allowed
 //! ones); types (via serde, with line and column); ranges and consistency
@@ -36,6 +40,8 @@
 //! [`Boundaries::validate`]). Nothing is clamped or silently corrected.
 
 mod keys;
+pub mod particles;
+pub mod placement;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -44,11 +50,17 @@ use serde::{Deserialize, Serialize};
 
 use crate::lattice::{Face, Grid, CS2};
 use crate::lbm::{Boundaries, Collision, FaceBoundary, FluidError, FluidParams};
+pub use particles::{IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind};
 
 /// A complete case: what [`crate::run::run_case`] needs to run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Case {
+    /// Gravitational acceleration `[gx, gy, gz]` (a top-level key, written above the first
+    /// table; default zero). Free particles feel their net weight `(γ − 1) V g`; the fluid is
+    /// not forced by it (use `fluid.body_force` for that).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<[f64; 3]>,
     /// The box of lattice nodes.
     pub domain: DomainSection,
     /// Fluid properties and storage precision.
@@ -60,6 +72,15 @@ pub struct Case {
     pub initial: InitialSection,
     /// Run length, output cadence and the health limit.
     pub run: RunSection,
+    /// Immersed-boundary numerics (default: see [`IbmSection`]); used with particles.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ibm: Option<IbmSection>,
+    /// Particles given one by one (`[[particles]]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub particles: Vec<ParticleSpec>,
+    /// Populations of particles placed at random (`[[random_particles]]`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub random_particles: Vec<RandomParticles>,
 }
 
 /// `[domain]`: grid size in nodes.
@@ -368,23 +389,42 @@ pub fn mach(u: [f64; 3]) -> f64 {
 /// Checks every key of the parsed document against the fields of the section structs.
 fn check_unknown_keys(doc: &toml::Table) -> Result<(), CaseErrorKind> {
     let top = keys::struct_fields::<Case>();
-    let unknown =
-        |key: String, allowed: &[&str]| CaseErrorKind::UnknownKey { key, allowed: allowed.join(", ") };
+    let unknown = |key: String, allowed: &[&str]| {
+        let mut allowed = allowed.join(", ");
+        if key.ends_with(".gravity") {
+            allowed.push_str(" (gravity is a top-level key: write it above the first [table])");
+        }
+        CaseErrorKind::UnknownKey { key, allowed }
+    };
+    let check_table = |name: &str, t: &toml::Table, fields: &[&str]| -> Result<(), CaseErrorKind> {
+        match t.keys().find(|k| !fields.contains(&k.as_str())) {
+            Some(k) => Err(unknown(format!("{name}.{k}"), fields)),
+            None => Ok(()),
+        }
+    };
     for (name, value) in doc {
         let fields: &[&str] = match name.as_str() {
+            "gravity" => continue,
             "domain" => keys::struct_fields::<DomainSection>(),
             "fluid" => keys::struct_fields::<FluidSection>(),
             "boundaries" => keys::struct_fields::<BoundarySection>(),
             "initial" => keys::struct_fields::<InitialSection>(),
             "run" => keys::struct_fields::<RunSection>(),
+            "ibm" => keys::struct_fields::<IbmSection>(),
+            "particles" => keys::struct_fields::<ParticleSpec>(),
+            "random_particles" => keys::struct_fields::<RandomParticles>(),
             _ => return Err(unknown(name.clone(), top)),
         };
-        if let toml::Value::Table(t) = value {
-            for k in t.keys() {
-                if !fields.contains(&k.as_str()) {
-                    return Err(unknown(format!("{name}.{k}"), fields));
+        match value {
+            toml::Value::Table(t) => check_table(name, t, fields)?,
+            toml::Value::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    if let toml::Value::Table(t) = item {
+                        check_table(&format!("{name}[{i}]"), t, fields)?;
+                    }
                 }
             }
+            _ => {}
         }
     }
     Ok(())
@@ -407,7 +447,13 @@ fn type_error(text: &str, e: &toml::de::Error) -> CaseErrorKind {
         let what = missing_what(&key);
         return CaseErrorKind::Missing { key, what };
     }
-    CaseErrorKind::Type { key, line, column, message: plain_types(&msg) }
+    let mut message = plain_types(&msg);
+    if let Some(k) = key.as_deref().filter(|k| *k == "particles" || *k == "random_particles") {
+        if message.contains("expected a sequence") {
+            message.push_str(&format!(" (write [[{k}]], an array of tables: one per entry)"));
+        }
+    }
+    CaseErrorKind::Type { key, line, column, message }
 }
 
 /// Replaces Rust type names in serde messages with what a case-file author writes.
@@ -432,6 +478,16 @@ fn missing_what(key: &str) -> String {
         "domain.nx" | "domain.ny" | "domain.nz" => "an integer >= 1".into(),
         "run.steps" => "an integer >= 1".into(),
         "run.output_every" => "an integer, 1 <= output_every <= run.steps".into(),
+        k if k.starts_with("particles[") || k.starts_with("random_particles[") => {
+            match k.rsplit('.').next().unwrap_or("") {
+                "shape" => "\"sphere\" or \"cylinder\"".into(),
+                "diameter" => "a number > 0 (lattice units)".into(),
+                "density" => "the density ratio rho_p/rho_f > 0".into(),
+                "position" => "[x, y, z] (lattice units)".into(),
+                "seed" => "an integer 0 <= seed < 2^63".into(),
+                _ => "required".into(),
+            }
+        }
         k if k.starts_with("boundaries.") => {
             "\"periodic\", \"no_slip\" or { moving_wall = [ux, uy, uz] }".into()
         }
@@ -465,13 +521,22 @@ impl Case {
         toml::from_str::<Case>(text).map_err(|e| type_error(text, &e))
     }
 
-    /// Checks ranges and consistency. The first problem found is returned, naming its key.
+    /// Checks ranges and consistency, and places the particles ([`Case::particle_inits`]).
+    /// The first problem found is returned, naming its key.
     pub fn validate(&self) -> Result<(), CaseErrorKind> {
+        self.validate_settings()?;
+        self.particle_inits().map(|_| ())
+    }
+
+    /// [`Case::validate`] without placing the particles (each particle entry is still
+    /// checked on its own): the cheap part.
+    pub fn validate_settings(&self) -> Result<(), CaseErrorKind> {
         self.validate_domain()?;
         self.validate_fluid()?;
         self.validate_run()?;
         self.validate_boundaries()?;
         self.validate_initial()?;
+        self.validate_particle_settings()?;
         Ok(())
     }
 

@@ -120,7 +120,7 @@ fn unknown_section_lists_allowed() {
     assert_err(
         &format!("{BASE}\n[output]\nevery = 1\n"),
         "output",
-        &["unknown key", "domain, fluid, boundaries, initial, run"],
+        &["unknown key", "domain, fluid, boundaries, initial, run, ibm, particles, random_particles"],
     );
 }
 
@@ -321,4 +321,231 @@ fn checkpoint_every_must_be_even_and_within_steps() {
     assert_eq!(ok.fingerprint(), longer.fingerprint());
     let other = Case::parse(&edit("nu = 0.1", "nu = 0.2"), "t.toml").unwrap();
     assert_ne!(ok.fingerprint(), other.fingerprint());
+}
+
+// ---- particles -------------------------------------------------------------------------
+
+/// A closed 40 x 32 x 48 box with periodic x, for particle tests.
+const PBOX: &str = r#"
+[domain]
+nx = 40
+ny = 32
+nz = 48
+
+[fluid]
+nu = 0.05
+
+[boundaries]
+x_min = "periodic"
+x_max = "periodic"
+y_min = "no_slip"
+y_max = "no_slip"
+z_min = "no_slip"
+z_max = "no_slip"
+
+[run]
+steps = 10
+output_every = 5
+"#;
+
+fn pcase(extra: &str) -> Case {
+    Case::parse(&format!("gravity = [0.0, 0.0, -4e-5]\n{PBOX}\n{extra}"), "p.toml")
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn explicit_particles_become_bodies() {
+    let c = pcase(
+        r#"
+[ibm]
+kernel = "peskin4"
+iterations = 2
+marker_spacing = 0.5
+
+[[particles]]
+shape = "cylinder"
+diameter = 6.0
+length = 12.0
+density = 1.25
+position = [10.0, 16.0, 20.0]
+axis = [1.0, 0.0, 0.0]
+
+[[particles]]
+shape = "sphere"
+diameter = 6.0
+density = 2.0
+position = [30.0, 16.0, 20.0]
+orientation = [0.0, 0.0, 0.0, 1.0]
+velocity = [0.01, 0.0, 0.0]
+angular_velocity = [0.0, 0.0, 0.001]
+motion = "prescribed"
+"#,
+    );
+    assert!(c.has_particles());
+    assert_eq!(c.particle_count(), 2);
+    let p = c.coupling_params();
+    assert_eq!(p.kernel, crate::ibm::DeltaKernel::Peskin4);
+    assert_eq!((p.iterations, p.marker_spacing, p.gravity), (2, 0.5, [0.0, 0.0, -4e-5]));
+    let b = c.bodies().unwrap();
+    assert_eq!(b.len(), 2);
+    assert!(b[0].is_free());
+    // axis = x: the body z axis points along world x.
+    let z = b[0].vector_to_world(&crate::rigid::Vec3::z());
+    assert!((z - crate::rigid::Vec3::x()).norm() < 1e-15, "{z}");
+    assert!((b[0].mass() - 1.25 * std::f64::consts::PI * 9.0 * 12.0).abs() < 1e-9);
+    assert_eq!(b[1].velocity, crate::rigid::Vec3::new(0.01, 0.0, 0.0));
+    assert!(matches!(b[1].motion(), crate::rigid::Motion::Prescribed(_)));
+    // q = [0, 0, 0, 1]: half a turn about z.
+    let x = b[1].vector_to_world(&crate::rigid::Vec3::x());
+    assert!((x + crate::rigid::Vec3::x()).norm() < 1e-15);
+}
+
+#[test]
+fn cases_without_particles_are_unchanged_by_the_particle_keys() {
+    let c = Case::parse(BASE, "t.toml").unwrap();
+    assert!(!c.has_particles());
+    assert_eq!(c.normalised(), c);
+    assert!(c.bodies().unwrap().is_empty());
+    let text = toml::to_string(&c).unwrap();
+    for k in ["gravity", "ibm", "particles"] {
+        assert!(!text.contains(k), "{text}");
+    }
+}
+
+#[test]
+fn normalised_particle_case_round_trips_through_toml() {
+    let c = pcase(
+        "[[particles]]\nshape = \"sphere\"\ndiameter = 4.0\ndensity = 1.5\nposition = [5.0, 6.0, 7.0]\nmotion = \"fixed\"\n\n\
+         [[random_particles]]\nshape = \"cylinder\"\ndiameter = 4.0\nlength = 8.0\ndensity = 1.25\ncount = 5\nseed = 9\n",
+    );
+    let n = c.normalised();
+    assert_eq!(n.ibm, Some(IbmSection::default()));
+    assert_eq!(n.particles[0].velocity, Some([0.0; 3]));
+    let text = toml::to_string(&n).unwrap();
+    let back = Case::parse(&text, "n.toml").unwrap();
+    assert_eq!(back, n);
+    assert_eq!(back.particle_inits().unwrap(), c.particle_inits().unwrap());
+}
+
+/// Random placement through the case: the count, determinism for a seed, every particle
+/// inside its region (1 from the walls), every pair at least the clearance apart (periodic
+/// images included), and random orientations.
+#[test]
+fn random_population_is_counted_deterministic_clear_and_inside() {
+    let text = r#"
+[[particles]]
+shape = "sphere"
+diameter = 8.0
+density = 1.0
+position = [20.0, 16.0, 24.0]
+motion = "fixed"
+
+[[random_particles]]
+shape = "cylinder"
+diameter = 4.0
+length = 12.0
+density = 1.25
+volume_fraction = 0.08
+seed = 7
+clearance = 1.5
+
+[[random_particles]]
+shape = "sphere"
+diameter = 3.0
+density = 2.0
+count = 20
+seed = 8
+region = [[-0.5, 0.5, 0.5], [39.5, 30.5, 12.0]]
+"#;
+    let c = pcase(text);
+    // 0.08 * 40 * 32 * 48 / (pi 4 12) = 32.6
+    assert_eq!(c.random_count(0), 33);
+    assert_eq!(c.particle_count(), 1 + 33 + 20);
+    let a = c.particle_inits().unwrap();
+    let b = pcase(text).particle_inits().unwrap();
+    assert_eq!(a, b, "not deterministic");
+    assert_eq!(a.len(), 54);
+    let other = pcase(&text.replace("seed = 7", "seed = 70")).particle_inits().unwrap();
+    assert_ne!(a[1].position, other[1].position);
+
+    let geometry = placement::BoxGeometry { n: [40, 32, 48], periodic: [true, false, false] };
+    let mut cells = placement::CellList::new(geometry, 14.0);
+    let mut tilted = 0;
+    for (i, p) in a.iter().enumerate() {
+        let shape = match p.shape {
+            ShapeKind::Sphere => placement::ShapeDims::Sphere { diameter: p.diameter },
+            ShapeKind::Cylinder => {
+                placement::ShapeDims::Cylinder { diameter: p.diameter, length: p.length.unwrap() }
+            }
+        };
+        let body = shape.at(p.position, &p.orientation);
+        let e = body.half_extents();
+        for ax in 1..3 {
+            assert!(p.position[ax] - e[ax] >= 0.5 - 1e-12, "particle {i} too close to a wall");
+            assert!(p.position[ax] + e[ax] <= [40.0, 32.0, 48.0][ax] - 1.5 + 1e-12);
+        }
+        assert!((-0.5..39.5).contains(&p.position[0]));
+        if i > 33 {
+            assert!(p.position[2] + e[2] <= 12.0 && p.position[0] - e[0] >= -0.5, "outside its region");
+        }
+        // 1.5 from the population-0 cylinders (placed against everything before them), 1
+        // for the later spheres.
+        let clearance = if (1..34).contains(&i) {
+            1.5
+        } else if i == 0 {
+            0.0
+        } else {
+            1.0
+        };
+        assert_eq!(cells.first_conflict(&body, clearance - 1e-9), None, "particle {i} too close");
+        cells.insert(body);
+        let axis = p.orientation * crate::rigid::Vec3::z();
+        if axis.z.abs() < 0.9 {
+            tilted += 1;
+        }
+    }
+    assert!(tilted > 20, "orientations do not look random: {tilted} of 53 tilted");
+}
+
+/// The paper's beds (Derksen 2020: 251 x 251 x 240, volume fraction 0.148, d = 12):
+/// 411 cylinders of l/d = 4 and 1644 of l/d = 1 are placed, quickly.
+#[test]
+fn paper_beds_are_placed_quickly() {
+    for (length, count) in [(48.0, 411), (12.0, 1644)] {
+        let text = format!(
+            r#"
+[domain]
+nx = 251
+ny = 251
+nz = 240
+[fluid]
+nu = 0.05
+[boundaries]
+x_min = "no_slip"
+x_max = "no_slip"
+y_min = "no_slip"
+y_max = "no_slip"
+z_min = "no_slip"
+z_max = "no_slip"
+[run]
+steps = 1
+output_every = 1
+[[random_particles]]
+shape = "cylinder"
+diameter = 12.0
+length = {length}
+density = 1.25
+volume_fraction = 0.148
+seed = 1
+"#
+        );
+        let c = Case::parse_unchecked(&text).unwrap();
+        assert!(c.random_count(0).abs_diff(count) <= 5, "{}", c.random_count(0));
+        let t0 = std::time::Instant::now();
+        let inits = c.particle_inits().unwrap_or_else(|e| panic!("{e}"));
+        let dt = t0.elapsed().as_secs_f64();
+        eprintln!("placed {} cylinders l/d = {} in {dt:.3} s", inits.len(), length / 12.0);
+        assert_eq!(inits.len(), c.random_count(0));
+        assert!(dt < 30.0, "placement took {dt} s");
+    }
 }

@@ -10,16 +10,20 @@
 //! - [`fields`]: [`write_fields_h5`] (`/density`, `/velocity`, shaped z-slowest);
 //! - [`xdmf`]: [`write_xdmf`] (XDMF 3 for ParaView, referencing the HDF5 datasets);
 //! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`];
-//! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart).
+//! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart);
+//! - [`particles`]: [`ParticleHistoryWriter`] (`particles.h5`: one frame per output step,
+//!   each append a copy of the file extended by the frame and renamed over it).
 
 pub mod atomic;
 pub mod checkpoint;
 pub mod fields;
+pub mod particles;
 pub mod timeseries;
 pub mod xdmf;
 
 pub use atomic::{atomic_write, atomic_write_bytes};
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
 pub use fields::{write_fields_h5, FieldsError};
-pub use timeseries::{TimeSeriesRow, TimeSeriesWriter};
+pub use particles::{ParticleFrame, ParticleHistoryWriter, ParticleStatic, ParticlesError};
+pub use timeseries::{ParticleAggregates, TimeSeriesRow, TimeSeriesWriter};
 pub use xdmf::{write_xdmf, xdmf_text};
