@@ -13,8 +13,9 @@
 //! **Particles.** When the case has particles, the fluid and the bodies of
 //! [`Case::bodies`] are stepped together by [`Coupled`] (options from
 //! [`Case::coupling_params`]); at every output step the time series gains the particle
-//! aggregates and `particles.h5` a frame ([`ParticleHistoryWriter`]). Resuming such a run is
-//! refused for now ([`BadResume`]): checkpoints hold the fluid only.
+//! aggregates and `particles.h5` a frame ([`ParticleHistoryWriter`]). Checkpoints then hold
+//! the particles' states too ([`Coupled::snapshot`]), and a resume continues bitwise
+//! identically (`particles.h5` is cut back to the checkpoint's step like the time series).
 //!
 //! Numerical trouble (non-finite populations, non-positive density, Mach number above
 //! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
@@ -29,14 +30,15 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, Precision};
-use crate::coupling::{Coupled, CouplingError};
+use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
-    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
+    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter, BODY_STATE_LEN,
 };
 use crate::lattice::Grid;
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Health, Real};
+use crate::rigid::Vec3;
 
 /// File names written into the output directory.
 pub mod files {
@@ -117,11 +119,38 @@ pub struct NumericalError {
     pub timeseries: PathBuf,
 }
 
-/// A resume that cannot proceed: the checkpoint belongs to another case, or the case has
-/// particles (whose state checkpoints do not hold yet).
+/// A resume that cannot proceed: the checkpoint belongs to another case, or lacks the
+/// particle states the case needs.
 #[derive(Clone, Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadResume(pub String);
+
+/// A body's state as a checkpoint row ([`BODY_STATE_LEN`] numbers; see `io::checkpoint`).
+fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
+    let v = |x: &Vec3| [x.x, x.y, x.z];
+    let mut r = [0.0; BODY_STATE_LEN];
+    r[0..3].copy_from_slice(&v(&b.position));
+    r[3..7].copy_from_slice(&b.orientation);
+    r[7..10].copy_from_slice(&v(&b.velocity));
+    r[10..13].copy_from_slice(&v(&b.angular_velocity));
+    r[13] = b.time;
+    r[14..17].copy_from_slice(&v(&b.change.0));
+    r[17..20].copy_from_slice(&v(&b.change.1));
+    r
+}
+
+/// The inverse of [`body_to_row`].
+fn body_from_row(r: &[f64; BODY_STATE_LEN]) -> BodyState {
+    let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
+    BodyState {
+        position: v(0),
+        orientation: [r[3], r[4], r[5], r[6]],
+        velocity: v(7),
+        angular_velocity: v(10),
+        time: r[13],
+        change: (v(14), v(17)),
+    }
+}
 
 /// The fluid alone, or the fluid coupled with particles.
 enum Solver<T: Real + Planes> {
@@ -134,13 +163,6 @@ impl<T: Real + Planes> Solver<T> {
         match self {
             Solver::Fluid(f) => f,
             Solver::Coupled(c) => c.fluid(),
-        }
-    }
-
-    fn fluid_mut(&mut self) -> &mut Fluid<T> {
-        match self {
-            Solver::Fluid(f) => f,
-            Solver::Coupled(c) => c.fluid_mut(),
         }
     }
 
@@ -183,14 +205,6 @@ impl<T: Real + Planes> Solver<T> {
 /// run there are replaced). Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    if opts.resume && case.has_particles() {
-        return Err(BadResume(
-            "--resume: a case with particles cannot be resumed yet (checkpoints hold the fluid state only); \
-             run it again without --resume"
-                .into(),
-        )
-        .into());
-    }
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     match case.fluid.precision {
@@ -256,7 +270,18 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
             ))
             .into());
         }
-        solver.fluid_mut().restore(&ck.state).context("cannot restore the checkpoint")?;
+        match &mut solver {
+            Solver::Fluid(f) => f.restore(&ck.state).context("cannot restore the checkpoint")?,
+            Solver::Coupled(c) => {
+                let rows = ck
+                    .bodies
+                    .as_ref()
+                    .ok_or_else(|| BadResume(format!("{} holds no particle states", ck_path.display())))?;
+                let state =
+                    CoupledState { fluid: ck.state, bodies: rows.iter().map(body_from_row).collect() };
+                c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+            }
+        }
         TimeSeriesWriter::resume(&ts_path, solver.fluid().time())
             .with_context(|| format!("cannot resume {}", ts_path.display()))?
     } else {
@@ -279,10 +304,13 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                 motion: p.motion.name(),
             })
             .collect();
-        Some(
+        Some(if opts.resume {
+            ParticleHistoryWriter::resume(&ph_path, solver.fluid().time())
+                .with_context(|| format!("cannot resume {}", ph_path.display()))?
+        } else {
             ParticleHistoryWriter::create(&ph_path, grid, case.gravity(), &statics)
-                .with_context(|| format!("cannot write {}", ph_path.display()))?,
-        )
+                .with_context(|| format!("cannot write {}", ph_path.display()))?
+        })
     };
 
     let limit = case.run.mach_limit;
@@ -334,9 +362,18 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                 rows += 1;
             }
             if checkpoint_due && resumed_at != Some(step) {
-                let state = fluid.snapshot().context("checkpoint at an odd step")?;
-                write_checkpoint(&ck_path, &state, &fingerprint)
-                    .with_context(|| format!("cannot write {}", ck_path.display()))?;
+                match &solver {
+                    Solver::Fluid(f) => {
+                        let state = f.snapshot().context("checkpoint at an odd step")?;
+                        write_checkpoint(&ck_path, &state, None, &fingerprint)
+                    }
+                    Solver::Coupled(c) => {
+                        let state = c.snapshot().context("checkpoint at an odd step")?;
+                        let rows: Vec<_> = state.bodies.iter().map(body_to_row).collect();
+                        write_checkpoint(&ck_path, &state.fluid, Some(&rows), &fingerprint)
+                    }
+                }
+                .with_context(|| format!("cannot write {}", ck_path.display()))?;
             }
         }
         if step >= total {

@@ -4,7 +4,8 @@
 //! precision `T`, so a restart is bitwise exact), `/force` is `T[3][nz][ny][nx]` when the force
 //! field is on. Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, and `case`: a
 //! fingerprint of the case (its normalised TOML without `run.steps`, so that a run can be
-//! extended) which a resume compares before it restores anything.
+//! extended) which a resume compares before it restores anything. With particles, `/bodies`
+//! is `f64[P][20]` ([`BODY_STATE_LEN`]).
 //!
 //! The file is written to a temporary name, synced and renamed: a run killed at any moment
 //! leaves either the previous checkpoint or the new one, never a torn file.
@@ -18,10 +19,18 @@ use super::fields::FieldsError;
 use crate::lattice::{Grid, Q};
 use crate::lbm::{FluidState, Real};
 
+/// Numbers per body in `/bodies`: position (3), orientation quaternion `w, x, y, z` (4),
+/// velocity (3), angular velocity (3), time (1), the last step's change of velocity (3) and
+/// of angular velocity (3) — what `coupling::Coupled::restore` needs.
+pub const BODY_STATE_LEN: usize = 20;
+
 /// A checkpoint read back: the state and the case fingerprint it was written with.
 pub struct Checkpoint<T> {
     /// The fluid state.
     pub state: FluidState<T>,
+    /// The particles' states, one row of [`BODY_STATE_LEN`] numbers per body, if the run had
+    /// particles.
+    pub bodies: Option<Vec<[f64; BODY_STATE_LEN]>>,
     /// The case fingerprint stored with it.
     pub case: String,
 }
@@ -30,6 +39,7 @@ pub struct Checkpoint<T> {
 pub fn write_checkpoint<T: Real + hdf5::H5Type>(
     path: &Path,
     state: &FluidState<T>,
+    bodies: Option<&[[f64; BODY_STATE_LEN]]>,
     case: &str,
 ) -> Result<(), FieldsError> {
     let g = state.grid;
@@ -47,6 +57,11 @@ pub fn write_checkpoint<T: Real + hdf5::H5Type>(
         if let Some(force) = &state.force {
             let d = file.new_dataset::<T>().shape([3, g.nz, g.ny, g.nx]).create("force")?;
             d.write_raw(force)?;
+        }
+        if let Some(b) = bodies {
+            let flat: Vec<f64> = b.iter().flatten().copied().collect();
+            let d = file.new_dataset::<f64>().shape([b.len(), BODY_STATE_LEN]).create("bodies")?;
+            d.write_raw(&flat)?;
         }
         file.close()?;
         Ok(())
@@ -71,7 +86,22 @@ pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Ch
         Ok(d) => Some(d.read_raw::<T>()?),
         Err(_) => None,
     };
+    let bodies = match file.dataset("bodies") {
+        Ok(d) => {
+            let flat = d.read_raw::<f64>()?;
+            if flat.len() % BODY_STATE_LEN != 0 {
+                anyhow::bail!(
+                    "{}: /bodies has {} values, not rows of {BODY_STATE_LEN}",
+                    path.display(),
+                    flat.len()
+                );
+            }
+            Some(flat.chunks(BODY_STATE_LEN).map(|c| std::array::from_fn(|k| c[k])).collect())
+        }
+        Err(_) => None,
+    };
     Ok(Checkpoint {
+        bodies,
         state: FluidState { time: get("time_step")?, grid, populations, force },
         case: file.attr("case")?.read_scalar::<VarLenUnicode>()?.to_string(),
     })

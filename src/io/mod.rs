@@ -22,7 +22,7 @@ pub mod timeseries;
 pub mod xdmf;
 
 pub use atomic::{atomic_write, atomic_write_bytes};
-pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint};
+pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint, BODY_STATE_LEN};
 pub use fields::{write_fields_h5, FieldsError};
 pub use particles::{ParticleFrame, ParticleHistoryWriter, ParticleStatic, ParticlesError};
 pub use timeseries::{ParticleAggregates, TimeSeriesRow, TimeSeriesWriter};

@@ -256,6 +256,32 @@ impl ParticleHistoryWriter {
         Ok(Self { path: path.to_path_buf(), particles: p, frames: 0 })
     }
 
+    /// Opens an existing `path` to continue a resumed run at `step`: frames written after
+    /// `step` (by the interrupted run, past its last checkpoint) are cut off, atomically (copy,
+    /// shrink, rename), so the file continues exactly as an uninterrupted run's would.
+    pub fn resume(path: &Path, step: u64) -> Result<Self, ParticlesError> {
+        let (keep, total, p) = {
+            let file = hdf5::File::open(path)?;
+            let steps = file.dataset("step")?.read_raw::<u64>()?;
+            let p = file.attr("particles")?.read_scalar::<u64>()? as usize;
+            (steps.iter().take_while(|&&s| s <= step).count(), steps.len(), p)
+        };
+        if keep < total {
+            atomic_write(path, |tmp| -> Result<(), ParticlesError> {
+                std::fs::copy(path, tmp)?;
+                let file = hdf5::File::open_rw(tmp)?;
+                for (name, k, _, _) in FRAME_DATASETS {
+                    file.dataset(name)?.resize((keep, p, k))?;
+                }
+                file.dataset("time")?.resize((keep,))?;
+                file.dataset("step")?.resize((keep,))?;
+                file.close()?;
+                Ok(())
+            })?;
+        }
+        Ok(Self { path: path.to_path_buf(), particles: p, frames: keep })
+    }
+
     /// Appends one frame (module docs: copy, extend, rename).
     pub fn append(&mut self, frame: &ParticleFrame) -> Result<(), ParticlesError> {
         let p = self.particles;
