@@ -21,6 +21,7 @@
 
 pub mod bench;
 pub mod case;
+pub mod contact;
 pub mod coupling;
 pub mod ibm;
 pub mod io;

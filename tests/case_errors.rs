@@ -394,3 +394,21 @@ fn impossible_placement_says_how_many_were_placed() {
         &["random_particles[0].volume_fraction = 0.5", "placed only", "lower the count or volume fraction"],
     );
 }
+
+/// `[contacts]`: parameters out of range name the key and the range; unknown keys are refused;
+/// an empty section is Table 1.
+#[test]
+fn contact_section_errors_name_key_and_range() {
+    let with = |body: &str| format!("{PARTICLES}\n[contacts]\n{body}\n");
+    rejects(&with("delta_sat = 1.5"), &["contacts.delta_sat", "1.5", "(0, delta_d = 1)"]);
+    rejects(&with("k = -1.0"), &["contacts.k", "-1", "positive"]);
+    rejects(&with("substeps = 0"), &["contacts.substeps", "0", "[1, 1024]"]);
+    rejects(&with("stiffness = 3.0"), &["contacts.stiffness"]);
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ok.toml");
+    std::fs::write(&path, with("")).unwrap();
+    let case = slurry::case::Case::from_file(&path).unwrap();
+    let cp = case.coupling_params();
+    assert_eq!(cp.contacts, Some(slurry::contact::ContactParams::default()));
+    assert_eq!(cp.contact_substeps, slurry::contact::DEFAULT_SUBSTEPS);
+}

@@ -50,7 +50,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::lattice::{Face, Grid, CS2};
 use crate::lbm::{Boundaries, Collision, FaceBoundary, FluidError, FluidParams};
-pub use particles::{IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind};
+pub use particles::{
+    ContactsSection, IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind,
+};
 
 /// A complete case: what [`crate::run::run_case`] needs to run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -75,6 +77,9 @@ pub struct Case {
     /// Immersed-boundary numerics (default: see [`IbmSection`]); used with particles.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ibm: Option<IbmSection>,
+    /// Contacts between particles and with the walls (`[contacts]`; absent = none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contacts: Option<ContactsSection>,
     /// Particles given one by one (`[[particles]]`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub particles: Vec<ParticleSpec>,
@@ -411,6 +416,7 @@ fn check_unknown_keys(doc: &toml::Table) -> Result<(), CaseErrorKind> {
             "initial" => keys::struct_fields::<InitialSection>(),
             "run" => keys::struct_fields::<RunSection>(),
             "ibm" => keys::struct_fields::<IbmSection>(),
+            "contacts" => keys::struct_fields::<ContactsSection>(),
             "particles" => keys::struct_fields::<ParticleSpec>(),
             "random_particles" => keys::struct_fields::<RandomParticles>(),
             _ => return Err(unknown(name.clone(), top)),

@@ -29,6 +29,10 @@ pub(super) struct RowSpan {
     pub xb: i64,
     pub xs: i64,
     pub xe: i64,
+    /// Body-frame position of the row's point at world `x = 0`, and the body-frame direction
+    /// of world `+x`: the node at unwrapped `x` is at `origin + x · dir` in the body frame.
+    pub origin: Vec3,
+    pub dir: Vec3,
 }
 
 /// Calls `f` for every x-row of `body` that meets `{sd < outer}` (`outer ≥ 0`), with the
@@ -76,7 +80,7 @@ pub(super) fn row_spans(
                 Some((s0, s1)) => ((s0 + SLACK).floor() as i64 + 1, (s1 - SLACK).ceil() as i64 - 1),
                 None => (1, 0),
             };
-            f(RowSpan { y, z, xa, xb, xs, xe });
+            f(RowSpan { y, z, xa, xb, xs, xe, origin: o, dir });
         }
     }
 }

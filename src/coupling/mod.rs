@@ -58,13 +58,15 @@
 //! the step that causes it: the integrator gets
 //!
 //! ```text
-//! F' = m/(m + K_t) · (F + K_t ΔUⁿ),    T'_k = I_k/(I_k + K_r,k) · (T_k + K_r,k Δω_kⁿ)
+//! F' = F − K_t (ΔU* − ΔUⁿ),   ΔU* = (F + C + K_t ΔUⁿ)/(m + K_t)     (per body axis for torques)
 //! ```
 //!
-//! i.e. `(m + K) ΔUⁿ⁺¹ = F + K ΔUⁿ`: the explicit reaction `−K ΔUⁿ` contained in `F` is
-//! replaced by the implicit `−K ΔUⁿ⁺¹`. The root becomes `(K − K_true)/(m + K)`, stable for
+//! (`C` the last step's contact load, which the contact sub-cycling adds itself), i.e.
+//! `(m + K) ΔUⁿ⁺¹ = F + K ΔUⁿ` without contacts: the explicit reaction `−K ΔUⁿ` contained in
+//! `F` is replaced by the implicit `−K ΔUⁿ⁺¹`. The correction vanishes whenever the velocity
+//! change is steady, so a particle resting on a bed is held by contacts equal to its weight. The root becomes `(K − K_true)/(m + K)`, stable for
 //! any estimate with `|K_true − K| < m + K`; the effective mass in a sustained acceleration
-//! is `m + K_true`, as with the explicit scheme; steady motion is untouched. The loads are
+//! is `m + K_true`, as with the explicit scheme; steady balances are untouched. The loads are
 //! used at the step's level (`LoadScheme::Constant`, which [`Coupled::new`] sets for free
 //! bodies: an Adams–Bashforth extrapolation of the lagged IBM force was unstable too).
 //!
@@ -90,6 +92,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
+use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
 use crate::ibm::{interpolate, spread_into, DeltaKernel, ForceSink, StencilError, Stencils};
 use crate::lattice::{Face, NodeLayout, Run};
 use crate::lbm::kernel::Planes;
@@ -113,16 +116,24 @@ pub struct CouplingParams {
     /// `(ρ_p − ρ_f) V g`; the fluid itself is not forced by it (its hydrostatic pressure does
     /// not move anything in a closed box).
     pub gravity: [f64; 3],
+    /// Contacts between bodies and with the box walls (the paper's Table 1), or `None`.
+    pub contacts: Option<ContactParams>,
+    /// Contact sub-steps per fluid step (≥ 1; see [`crate::contact`] for the stability
+    /// analysis behind [`DEFAULT_SUBSTEPS`]).
+    pub contact_substeps: usize,
 }
 
 impl Default for CouplingParams {
-    /// The default kernel, one forcing iteration, [`DEFAULT_MARKER_SPACING`], no gravity.
+    /// The default kernel, one forcing iteration, [`DEFAULT_MARKER_SPACING`], no gravity, no
+    /// contacts ([`DEFAULT_SUBSTEPS`] sub-steps once they are turned on).
     fn default() -> Self {
         Self {
             kernel: DeltaKernel::default(),
             iterations: 1,
             marker_spacing: DEFAULT_MARKER_SPACING,
             gravity: [0.0; 3],
+            contacts: None,
+            contact_substeps: DEFAULT_SUBSTEPS,
         }
     }
 }
@@ -145,6 +156,8 @@ pub enum CouplingError {
     },
     /// A fluid state to restore does not fit (the fluid's message).
     State(String),
+    /// Invalid contact parameters or sub-step count.
+    Contacts(String),
 }
 
 impl fmt::Display for CouplingError {
@@ -159,6 +172,7 @@ impl fmt::Display for CouplingError {
                 write!(f, "state has {found} bodies, the case has {expected}")
             }
             CouplingError::State(e) => write!(f, "fluid state: {e}"),
+            CouplingError::Contacts(e) => write!(f, "contacts: {e}"),
         }
     }
 }
@@ -193,6 +207,11 @@ pub struct BodyLoads {
     /// Rate of change of the interior fluid's angular momentum,
     /// `L_after − L_before + ω × (I_f ω)`.
     pub interior_torque: Vec3,
+    /// Contact force, averaged over the step's sub-steps (zero without contacts). For a
+    /// prescribed body (an impeller) this is the paper's "solids" load: reported, not applied.
+    pub contact_force: Vec3,
+    /// Contact torque about the body's centre, averaged over the sub-steps.
+    pub contact_torque: Vec3,
 }
 
 impl BodyLoads {
@@ -222,6 +241,9 @@ pub struct BodyState {
     pub time: f64,
     /// The last step's change of velocity and angular velocity ([`Coupled::velocity_change`]).
     pub change: (Vec3, Vec3),
+    /// The last step's averaged contact force and torque (the next step's shell reaction
+    /// predicts with them).
+    pub contact: (Vec3, Vec3),
 }
 
 /// Everything a coupled run needs to continue bitwise identically: the fluid at an even step
@@ -305,6 +327,8 @@ pub struct Coupled<T: Real + Planes> {
     /// Per free body, its change of velocity and angular velocity (world) in the last step.
     change: Vec<(Vec3, Vec3)>,
     timings: StepTimings,
+    contacts: Option<Contacts>,
+    contact_substeps: usize,
 }
 
 /// The fluid's force field as a spreading target.
@@ -366,6 +390,19 @@ impl<T: Real + Planes> Coupled<T> {
         let nodes = fluid.grid().nodes();
         let n_bodies = bodies.len();
         let band = Band { per_body: vec![Vec::new(); n_bodies], ..Band::default() };
+        let contacts = match params.contacts {
+            Some(cp) => {
+                if params.contact_substeps == 0 {
+                    return Err(CouplingError::Contacts("contact_substeps must be at least 1".into()));
+                }
+                let g = fluid.grid();
+                let walls = Walls::bounce_back([g.nx, g.ny, g.nz], periodic.map(|p: bool| !p));
+                let c = Contacts::new(cp, walls, &bodies, &markers)
+                    .map_err(|e| CouplingError::Contacts(e.to_string()))?;
+                Some(c)
+            }
+            None => None,
+        };
         let owner =
             markers.iter().enumerate().flat_map(|(b, m)| std::iter::repeat_n(b as u32, m.len())).collect();
         Ok(Self {
@@ -392,6 +429,8 @@ impl<T: Real + Planes> Coupled<T> {
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
             timings: StepTimings::default(),
+            contacts,
+            contact_substeps: params.contact_substeps,
             markers,
         })
     }
@@ -490,7 +529,8 @@ impl<T: Real + Planes> Coupled<T> {
             .bodies
             .iter()
             .zip(&self.change)
-            .map(|(b, c)| {
+            .zip(&self.loads)
+            .map(|((b, c), l)| {
                 let q = b.orientation.into_inner();
                 BodyState {
                     position: b.position,
@@ -499,6 +539,7 @@ impl<T: Real + Planes> Coupled<T> {
                     angular_velocity: b.angular_velocity,
                     time: b.time,
                     change: *c,
+                    contact: (l.contact_force, l.contact_torque),
                 }
             })
             .collect();
@@ -517,7 +558,14 @@ impl<T: Real + Planes> Coupled<T> {
         self.fluid.restore(&s.fluid).map_err(|e| CouplingError::State(e.to_string()))?;
         self.fluid.enable_force_field();
         self.fluid.clear_force_field();
-        for ((b, c), st) in self.bodies.iter_mut().zip(self.change.iter_mut()).zip(&s.bodies) {
+        for (((b, c), l), st) in
+            self.bodies.iter_mut().zip(self.change.iter_mut()).zip(self.loads.iter_mut()).zip(&s.bodies)
+        {
+            *l = BodyLoads {
+                contact_force: st.contact.0,
+                contact_torque: st.contact.1,
+                ..BodyLoads::default()
+            };
             let [w, x, y, z] = st.orientation;
             *b = b
                 .clone()
@@ -569,7 +617,9 @@ impl<T: Real + Planes> Coupled<T> {
     ///    correction ([`BodyLoads`]).
     /// 8. **Bodies advance** ([`RigidBody::step`]): free bodies with their hydrodynamic loads
     ///    and net weight `(ρ_p − 1) V g` (fluid density 1); prescribed bodies move; fixed
-    ///    bodies stay. (Contacts, sub-cycled, enter here: issue 4.)
+    ///    bodies stay. With contacts the step is sub-cycled ([`Contacts::advance`]): contact
+    ///    loads recomputed every sub-step, the external loads held; the contact loads averaged
+    ///    over the sub-steps are stored in [`BodyLoads`].
     ///
     /// No allocation once the buffers have grown (the first steps).
     ///
@@ -682,30 +732,57 @@ impl<T: Real + Planes> Coupled<T> {
                 let inertia_fluid = body.inertia_world() / body.density();
                 let fi = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
                 let ti = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
-                *loads = BodyLoads { ibm_force: f, ibm_torque: t, interior_force: fi, interior_torque: ti };
+                *loads = BodyLoads {
+                    ibm_force: f,
+                    ibm_torque: t,
+                    interior_force: fi,
+                    interior_torque: ti,
+                    // The previous step's contact loads stay until step 8 replaces them: the
+                    // implicit shell reaction predicts with them.
+                    ..*loads
+                };
             });
         }
-        // 8. Bodies.
+        // 8. Bodies: external loads (hydrodynamic, with the implicit shell reaction, and net
+        // weight) into the accumulators; then either contacts sub-cycle the step or each body
+        // steps once.
         let g = self.gravity;
         for ((body, loads), (shell, change)) in
-            self.bodies.iter_mut().zip(&self.loads).zip(self.shell.iter().zip(self.change.iter_mut()))
+            self.bodies.iter_mut().zip(&self.loads).zip(self.shell.iter().zip(self.change.iter()))
         {
             if body.is_free() {
+                let contact = (loads.contact_force, loads.contact_torque);
                 let (f, t) = shell_implicit(
                     body,
                     shell,
                     change,
+                    contact,
                     loads.force() + body.net_weight(g, 1.0),
                     loads.torque(),
                 );
                 body.add_force(f);
                 body.add_torque(t);
-                let (u0, w0) = (body.velocity, body.angular_velocity);
-                body.step(1.0);
-                *change = (body.velocity - u0, body.angular_velocity - w0);
-            } else {
-                body.step(1.0);
             }
+        }
+        for (c, b) in self.change.iter_mut().zip(&self.bodies) {
+            *c = (b.velocity, b.angular_velocity);
+        }
+        match self.contacts.as_mut() {
+            Some(contacts) => {
+                let avg = contacts.advance(&mut self.bodies, &self.markers, self.contact_substeps);
+                for (l, a) in self.loads.iter_mut().zip(avg) {
+                    l.contact_force = a.force;
+                    l.contact_torque = a.torque;
+                }
+            }
+            None => self.bodies.iter_mut().for_each(|b| b.step(1.0)),
+        }
+        for (c, b) in self.change.iter_mut().zip(&self.bodies) {
+            *c = if b.is_free() {
+                (b.velocity - c.0, b.angular_velocity - c.1)
+            } else {
+                (Vec3::zeros(), Vec3::zeros())
+            };
         }
         std::mem::swap(&mut self.band, &mut self.band_prev);
         lap(&mut tm.bodies);
@@ -765,23 +842,33 @@ fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
     (kt, kr)
 }
 
-/// The loads handed to a free body's integrator with the shell reaction taken implicitly
-/// (module docs): `F' = m/(m + K_t) (F + K_t ΔUⁿ)` and, per body axis,
-/// `T'_k = I_k/(I_k + K_r,k) (T_k + K_r,k Δω_kⁿ)`.
+/// The external load handed to a free body's integrator, with the shell reaction taken
+/// implicitly (module docs): the predicted change `ΔU* = (F + C + K_t ΔUⁿ)/(m + K_t)` (`C` the
+/// last step's averaged contact force, which the sub-cycling adds again itself) gives the
+/// correction `D = −K_t (ΔU* − ΔUⁿ)`, and `F + D` is returned; per body axis likewise for the
+/// torque. `D` vanishes whenever the velocity change is steady (at rest on a bed, in steady
+/// fall, in uniform acceleration), so every steady balance is the physical one; without
+/// contacts `F + D = m/(m + K_t) (F + K_t ΔUⁿ)`.
 fn shell_implicit(
     body: &RigidBody,
     shell: &(f64, Vec3),
     change: &(Vec3, Vec3),
+    contact: (Vec3, Vec3),
     f: Vec3,
     t: Vec3,
 ) -> (Vec3, Vec3) {
     let (kt, kr) = shell;
     let m = body.mass();
-    let f = (f + change.0 * *kt) * (m / (m + kt));
+    let du = (f + contact.0 + change.0 * *kt) / (m + kt);
+    let f = f - (du - change.0) * *kt;
     let inertia = body.mass_properties().principal_moments;
     let tb = body.vector_to_body(&t);
+    let cb = body.vector_to_body(&contact.1);
     let dwb = body.vector_to_body(&change.1);
-    let tb = Vec3::from_fn(|k, _| (tb[k] + kr[k] * dwb[k]) * (inertia[k] / (inertia[k] + kr[k])));
+    let tb = Vec3::from_fn(|k, _| {
+        let dw = (tb[k] + cb[k] + kr[k] * dwb[k]) / (inertia[k] + kr[k]);
+        tb[k] - kr[k] * (dw - dwb[k])
+    });
     (f, body.vector_to_world(&tb))
 }
 
@@ -808,8 +895,7 @@ fn interior_sums<T: Real + Planes>(
                 let alpha = if s.xs <= xu && xu <= s.xe {
                     1.0
                 } else {
-                    (0.5 - shape.signed_distance(&body.to_body(&Vec3::new(xu as f64, yu, zu))))
-                        .clamp(0.0, 1.0)
+                    (0.5 - shape.signed_distance(&(s.origin + s.dir * xu as f64))).clamp(0.0, 1.0)
                 };
                 if alpha > 0.0 {
                     v += alpha;

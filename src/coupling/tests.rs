@@ -138,19 +138,30 @@ fn restore_continues_bitwise() {
                 .unwrap();
         fluid.initialize(|_, _, _| (1.0, [0.0; 3]));
         let body = RigidBody::new(Arc::new(crate::rigid::Cylinder::new(4.0, 8.0)), 1.25, Motion::Free)
-            .with_position(Vec3::new(6.6, 7.1, 12.0))
+            .with_position(Vec3::new(4.6, 7.1, 12.0))
+            .with_velocities(Vec3::new(-0.02, 0.0, 0.0), Vec3::zeros())
             .with_orientation(crate::rigid::Quat::from_euler_angles(0.3, 0.9, 0.0));
-        Coupled::new(fluid, vec![body], CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() })
-            .unwrap()
+        // Contacts on, and the cylinder released at the wall x = -1/2 so that they act.
+        let params = CouplingParams {
+            gravity: [0.0, 0.0, -1e-4],
+            contacts: Some(crate::contact::ContactParams::default()),
+            ..Default::default()
+        };
+        Coupled::new(fluid, vec![body], params).unwrap()
     };
     let mut a = mk();
-    a.run(10).unwrap();
+    a.run(20).unwrap();
     let s = a.snapshot().unwrap();
-    a.run(10).unwrap();
+    let mut touched = 0.0f64;
+    for _ in 0..40 {
+        a.step().unwrap();
+        touched = touched.max(a.loads(0).contact_force.norm());
+    }
+    assert!(touched > 0.0, "the contact with the wall never happened");
     let mut b = mk();
     b.run(3).unwrap(); // a different history, overwritten by the restore
     b.restore(&s).unwrap();
-    b.run(10).unwrap();
+    b.run(40).unwrap();
     assert_eq!(a.fluid().populations_all(), b.fluid().populations_all());
     let (pa, pb) = (&a.bodies()[0], &b.bodies()[0]);
     assert_eq!(
@@ -158,4 +169,44 @@ fn restore_continues_bitwise() {
         (pb.position, pb.velocity, pb.angular_velocity)
     );
     assert_eq!(pa.orientation, pb.orientation);
+}
+/// With contacts on, a heavy sphere released above the floor of a closed box comes to rest on
+/// it without its markers crossing the contact's saturation distance of the wall, and the
+/// wall's contact force and the fluid then carry the net weight (averaged over the last 1000
+/// steps).
+#[test]
+fn sphere_settles_on_the_floor_with_contacts() {
+    let mut fluid =
+        Fluid::<f32>::new(Grid::new(16, 16, 24), FluidParams::bgk(0.1), Boundaries::closed_box()).unwrap();
+    fluid.initialize(|_, _, _| (1.0, [0.0; 3]));
+    let g = 2e-3;
+    let body = RigidBody::new(Arc::new(Sphere::new(6.0)), 1.25, Motion::Free)
+        .with_position(Vec3::new(7.5, 7.5, 8.0));
+    let params = CouplingParams {
+        gravity: [0.0, 0.0, -g],
+        contacts: Some(crate::contact::ContactParams::default()),
+        ..Default::default()
+    };
+    let mut c = Coupled::new(fluid, vec![body], params).unwrap();
+    let mut lowest = f64::INFINITY;
+    let mut support = 0.0;
+    for k in 0..6000 {
+        c.step().unwrap();
+        if k >= 5000 {
+            support += (c.loads(0).contact_force.z + c.loads(0).force().z) / 1000.0;
+        }
+        let b = &c.bodies()[0];
+        // Gap between the sphere's surface and the floor plane at z = -1/2.
+        lowest = lowest.min(b.position.z - 3.0 + 0.5);
+    }
+    let b = &c.bodies()[0];
+    let weight = b.net_weight(Vec3::new(0.0, 0.0, -g), 1.0);
+    assert!(lowest > 0.2 - 0.05, "closest approach to the floor {lowest}");
+    assert!(
+        b.velocity.norm() < 1e-5,
+        "still moving: {:?} at z = {}, lowest {lowest}",
+        b.velocity,
+        b.position.z
+    );
+    assert!((support + weight.z).abs() < 0.02 * weight.norm(), "support {support} vs weight {}", weight.z);
 }

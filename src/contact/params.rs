@@ -1,0 +1,214 @@
+//! Contact parameters (the paper's Table 1) and the box walls.
+
+use crate::rigid::Vec3;
+
+/// The parameters of the contact model (Derksen 2020, Table 1; lattice units), and two
+/// switches that turn its parts on or off (verification: an elastic-only collision must conserve
+/// energy).
+///
+/// With `δ` the normal and `δ_λ` the tangential distance of a marker pair and
+/// `w = (λ − δ_λ)/λ` (module [`super`]):
+///
+/// ```text
+/// elastic (δ < δ0, δ_λ < λ):        F_el = −k (δ0 − δ) w n̂
+/// lubrication (δ* < δ_d, δ_λ < λ):  F_lub = (kⁿ Δuⁿ + kᵗ Δuᵗ)(1/δ* − 1/δ_d) w,   δ* = max(δ, δ_sat)
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// Spring constant `k` of the elastic force (Table 1: 5.0).
+    pub k: f64,
+    /// Range `δ0` of the elastic force: it acts for `δ < δ0` (Table 1: 0.5).
+    pub delta0: f64,
+    /// Tangential range `λ`: marker pairs with `δ_λ ≥ λ` do not interact (Table 1: 0.5).
+    pub lambda: f64,
+    /// Normal lubrication coefficient `kⁿ` (Table 1: 5.0).
+    pub k_n: f64,
+    /// Range `δ_d` of the lubrication force: it acts for `δ < δ_d` (Table 1: 1.0).
+    pub delta_d: f64,
+    /// Saturation distance `δ_sat` of the lubrication force: `δ* = max(δ, δ_sat)` (Table 1: 0.2).
+    pub delta_sat: f64,
+    /// Tangential lubrication coefficient `kᵗ` (Table 1: 0.5).
+    pub k_t: f64,
+    /// Whether the elastic force acts (default `true`).
+    pub elastic: bool,
+    /// Whether the lubrication forces act (default `true`).
+    pub lubrication: bool,
+}
+
+impl Default for ContactParams {
+    /// Table 1 of Derksen (2020), both parts on.
+    fn default() -> Self {
+        Self {
+            k: 5.0,
+            delta0: 0.5,
+            lambda: 0.5,
+            k_n: 5.0,
+            delta_d: 1.0,
+            delta_sat: 0.2,
+            k_t: 0.5,
+            elastic: true,
+            lubrication: true,
+        }
+    }
+}
+
+/// A contact parameter outside its allowed range.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("contact parameter {name} = {value} is out of range: it must be {allowed}")]
+pub struct ContactParamError {
+    /// The parameter's field name (`"delta_sat"`, …).
+    pub name: &'static str,
+    /// The value given.
+    pub value: f64,
+    /// The allowed range, in words (e.g. `"in (0, delta_d = 1)"`).
+    pub allowed: String,
+}
+
+impl ContactParams {
+    /// Checks that `k, δ0, λ, kⁿ, δ_d, kᵗ` are positive and finite and that
+    /// `0 < δ_sat < δ_d`; the error names the first offending parameter and its range.
+    pub fn validate(&self) -> Result<(), ContactParamError> {
+        let positive = [
+            ("k", self.k),
+            ("delta0", self.delta0),
+            ("lambda", self.lambda),
+            ("k_n", self.k_n),
+            ("delta_d", self.delta_d),
+            ("k_t", self.k_t),
+        ];
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ContactParamError { name, value, allowed: "positive and finite".into() });
+            }
+        }
+        if !(self.delta_sat > 0.0 && self.delta_sat < self.delta_d) {
+            return Err(ContactParamError {
+                name: "delta_sat",
+                value: self.delta_sat,
+                allowed: format!("in (0, delta_d = {})", self.delta_d),
+            });
+        }
+        Ok(())
+    }
+
+    /// The normal range of the model: the largest `δ` at which any enabled part acts,
+    /// `max(δ0 [elastic], δ_d [lubrication])` (0 if both are off).
+    pub fn cutoff(&self) -> f64 {
+        let e = if self.elastic { self.delta0 } else { 0.0 };
+        let l = if self.lubrication { self.delta_d } else { 0.0 };
+        e.max(l)
+    }
+
+    /// The largest marker–marker distance considered, `√(cutoff² + λ²)`: every pair with
+    /// `|δ| < cutoff` and `δ_λ < λ` lies within it (module [`super`], "Which pairs").
+    pub fn reach(&self) -> f64 {
+        let c = self.cutoff();
+        if c > 0.0 {
+            c.hypot(self.lambda)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The fixed walls of the box: per axis, an optional wall on the low and on the high side,
+/// given by the coordinate of its plane.
+///
+/// With half-way bounce-back on a grid of `n` nodes along an axis (nodes at `0 … n − 1`), the
+/// walls lie at `−0.5` and `n − 0.5` ([`Walls::closed_box`]). The fluid (and the particles) are
+/// on the inner side: between `planes[a][0]` and `planes[a][1]`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Walls {
+    /// `planes[axis][side]`: `side = 0` the low wall (outward normal `−e_axis`), `side = 1` the
+    /// high wall (outward normal `+e_axis`); `None`: no wall (e.g. a periodic axis).
+    pub planes: [[Option<f64>; 2]; 3],
+}
+
+impl Walls {
+    /// No walls.
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// Walls on both sides of every axis where `walled[a]` holds, at the half-way bounce-back
+    /// positions `−0.5` and `n[a] − 0.5` of a grid of `n[a]` nodes.
+    pub fn bounce_back(n: [usize; 3], walled: [bool; 3]) -> Self {
+        let mut w = Self::none();
+        for a in 0..3 {
+            if walled[a] {
+                w.planes[a] = [Some(-0.5), Some(n[a] as f64 - 0.5)];
+            }
+        }
+        w
+    }
+
+    /// A closed box of `n[0] × n[1] × n[2]` nodes: walls on all six faces (the paper's tank).
+    pub fn closed_box(n: [usize; 3]) -> Self {
+        Self::bounce_back(n, [true; 3])
+    }
+
+    /// Whether there is any wall.
+    pub fn is_empty(&self) -> bool {
+        self.planes.iter().flatten().all(Option::is_none)
+    }
+
+    /// The walls in their fixed order (axis 0 low, axis 0 high, axis 1 low, …) as
+    /// `(axis, side, plane coordinate, outward normal n̂)`; `n̂` points from the fluid into the
+    /// wall (`−e_axis` for the low wall).
+    pub fn iter(&self) -> impl Iterator<Item = (usize, usize, f64, Vec3)> + '_ {
+        (0..3).flat_map(move |a| {
+            (0..2).filter_map(move |s| {
+                self.planes[a][s].map(|p| {
+                    let mut n = Vec3::zeros();
+                    n[a] = if s == 0 { -1.0 } else { 1.0 };
+                    (a, s, p, n)
+                })
+            })
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_table_1_and_valid() {
+        let p = ContactParams::default();
+        assert_eq!(
+            (p.k, p.delta0, p.lambda, p.k_n, p.delta_d, p.delta_sat, p.k_t),
+            (5.0, 0.5, 0.5, 5.0, 1.0, 0.2, 0.5)
+        );
+        p.validate().unwrap();
+        assert_eq!(p.cutoff(), 1.0);
+        assert!((p.reach() - 1.25f64.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
+    fn validation_names_the_parameter_and_range() {
+        let e = ContactParams { delta_sat: 1.5, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.name, "delta_sat");
+        let msg = e.to_string();
+        assert!(msg.contains("delta_sat = 1.5") && msg.contains("(0, delta_d = 1)"), "{msg}");
+        let e = ContactParams { k_t: f64::NAN, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.name, "k_t");
+        assert!(e.to_string().contains("positive and finite"));
+        let e = ContactParams { lambda: -1.0, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.name, "lambda");
+        let e = ContactParams { delta_sat: 0.0, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.name, "delta_sat");
+    }
+
+    #[test]
+    fn box_walls() {
+        let w = Walls::closed_box([10, 20, 30]);
+        let v: Vec<_> = w.iter().collect();
+        assert_eq!(v.len(), 6);
+        assert_eq!((v[0].0, v[0].1, v[0].2), (0, 0, -0.5));
+        assert_eq!(v[0].3, Vec3::new(-1.0, 0.0, 0.0));
+        assert_eq!((v[5].0, v[5].1, v[5].2), (2, 1, 29.5));
+        assert_eq!(v[5].3, Vec3::new(0.0, 0.0, 1.0));
+        assert!(Walls::none().is_empty());
+        assert_eq!(Walls::bounce_back([4, 4, 8], [false, false, true]).iter().count(), 2);
+    }
+}

@@ -1,0 +1,253 @@
+//! Property tests of the contact module against its brute-force oracle.
+//!
+//! Random configurations (seeded; proptest draws the seed): 2–5 bodies, spheres and cylinders
+//! of diameter 3–8 and length 2–12, random orientations, each body after the first placed
+//! against a previous one at a surface gap drawn in `[−0.3, 1.1]` (some overlapping slightly,
+//! most within the lubrication range, some just beyond), random velocities (`|v| ≲ 0.05`)
+//! and angular velocities, about one body in four prescribed or fixed; walls (in about half the
+//! cases) placed at a gap in `[−0.2, 0.9]` below/beside the lowest/leftmost marker so that
+//! bodies touch them.
+//!
+//! Claims and tolerances:
+//! - **fast path ≡ oracle, bitwise**: the fast path (`Contacts::compute`: cell list, marker
+//!   bins, parallel pairs) uses the same force law, the same marker arithmetic and the same
+//!   summation order as `brute_force` (module doc of `contact::oracle`): every load component,
+//!   the wall reaction and the counters must have identical bits. Any pruning bug (a pair
+//!   missed by the broad phase, the bounding-sphere or surface-distance filters, the bins)
+//!   changes a sum and fails.
+//! - **thread-count determinism, bitwise**: pools of 1, 2 and 3 threads give identical bits.
+//! - **Newton's third law**: `Σ_b F_b + F_walls = 0` with a tolerance of `1e-13 Σ_b |F_b|`
+//!   (each marker pair adds `+f` and `−f` to two body sums, so the total is a sum of ≈ 10³
+//!   round-off terms of relative size 1e-16); there is no tolerance on the physics.
+//! - **no allocation in steady state**: the internal buffer capacity does not change between
+//!   two evaluations of the same configuration (one thread).
+//! - **sub-cycling conserves linear momentum** (free bodies, no walls): `|ΔΣ m v|` below
+//!   `1e-14 (Σ |m v| + Σ |F̄|)` over 20 fluid steps of 8 sub-steps (round-off of 160 velocity
+//!   updates, ≈ 1e-16 relative each).
+
+use std::sync::Arc;
+
+use proptest::prelude::*;
+use slurry::contact::{brute_force, ContactLoad, ContactParams, Contacts, Walls};
+use slurry::rigid::{Cylinder, Marker, Motion, Quat, RigidBody, Shape, Sphere, Vec3, DEFAULT_MARKER_SPACING};
+use slurry::util::SplitMix64;
+
+struct Config {
+    bodies: Vec<RigidBody>,
+    markers: Vec<Vec<Marker>>,
+    walls: Walls,
+}
+
+fn random_unit(rng: &mut SplitMix64) -> Vec3 {
+    loop {
+        let v = Vec3::from(rng.vec3(-1.0, 1.0));
+        let n = v.norm();
+        if n > 0.1 && n < 1.0 {
+            return v / n;
+        }
+    }
+}
+
+fn random_rotation(rng: &mut SplitMix64) -> Quat {
+    Quat::from_axis_angle(
+        &nalgebra::Unit::new_normalize(random_unit(rng)),
+        rng.uniform(0.0, std::f64::consts::TAU),
+    )
+}
+
+/// Smallest signed distance of `b`'s markers (placed with `pos`, `q`) to body `other`.
+fn gap(other: &RigidBody, m: &[Marker], pos: Vec3, q: Quat) -> f64 {
+    m.iter()
+        .map(|mk| other.signed_distance(&(pos + q.transform_vector(&mk.position))))
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn config(seed: u64) -> Config {
+    let mut rng = SplitMix64(seed);
+    let n = 2 + (rng.next_u64() % 4) as usize;
+    let mut bodies: Vec<RigidBody> = Vec::new();
+    let mut markers: Vec<Vec<Marker>> = Vec::new();
+    for k in 0..n {
+        let shape: Arc<dyn Shape> = if rng.unit() < 0.4 {
+            Arc::new(Sphere::new(rng.uniform(3.0, 8.0)))
+        } else {
+            Arc::new(Cylinder::new(rng.uniform(3.0, 8.0), rng.uniform(2.0, 12.0)))
+        };
+        let m = shape.markers(DEFAULT_MARKER_SPACING);
+        let q = random_rotation(&mut rng);
+        let pos = if k == 0 {
+            Vec3::from(rng.vec3(20.0, 30.0))
+        } else {
+            // Against a previous body at a target gap, by bisection along a random direction.
+            let other = &bodies[(rng.next_u64() % k as u64) as usize];
+            let dir = random_unit(&mut rng);
+            let target = rng.uniform(-0.3, 1.1);
+            let (mut lo, mut hi) = (0.0, 40.0);
+            for _ in 0..60 {
+                let t = 0.5 * (lo + hi);
+                if gap(other, &m, other.position + dir * t, q) < target {
+                    lo = t;
+                } else {
+                    hi = t;
+                }
+            }
+            other.position + dir * hi
+        };
+        let motion = match rng.next_u64() % 8 {
+            0 => Motion::Fixed,
+            1 => Motion::constant(Vec3::from(rng.vec3(-0.05, 0.05)), Vec3::from(rng.vec3(-0.01, 0.01))),
+            _ => Motion::Free,
+        };
+        let b = RigidBody::new(shape, 1.25, motion)
+            .with_position(pos)
+            .with_orientation(q)
+            .with_velocities(Vec3::from(rng.vec3(-0.05, 0.05)), Vec3::from(rng.vec3(-0.01, 0.01)));
+        bodies.push(b);
+        markers.push(m);
+    }
+    let mut walls = Walls::none();
+    if rng.unit() < 0.5 {
+        // A floor and a left wall touching the lowest / leftmost markers (some beyond them).
+        for axis in [2usize, 0] {
+            let lowest = bodies
+                .iter()
+                .zip(&markers)
+                .flat_map(|(b, m)| m.iter().map(move |mk| b.to_world(&mk.position)[axis]))
+                .fold(f64::INFINITY, f64::min);
+            walls.planes[axis][0] = Some(lowest - rng.uniform(-0.2, 0.9));
+        }
+        walls.planes[1] = [Some(-1000.0), Some(1000.0)];
+    }
+    Config { bodies, markers, walls }
+}
+
+fn bits(l: &[ContactLoad]) -> Vec<u64> {
+    l.iter()
+        .flat_map(|c| c.force.iter().chain(c.torque.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
+        .collect()
+}
+
+fn fast(
+    c: &Config,
+    params: ContactParams,
+    threads: usize,
+) -> (Vec<ContactLoad>, Vec3, slurry::contact::ContactStats) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+    pool.install(|| {
+        let mut ct = Contacts::new(params, c.walls, &c.bodies, &c.markers).unwrap();
+        let loads = ct.compute(&c.bodies, &c.markers).to_vec();
+        (loads, ct.wall_reaction(), *ct.stats())
+    })
+}
+
+fn params_for(seed: u64) -> ContactParams {
+    match seed % 4 {
+        0 => ContactParams { elastic: false, ..Default::default() },
+        1 => ContactParams { lubrication: false, ..Default::default() },
+        _ => ContactParams::default(),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn fast_path_equals_oracle_bitwise(seed in any::<u64>()) {
+        let c = config(seed);
+        let params = params_for(seed);
+        let (loads, reaction, stats) = fast(&c, params, 2);
+        let o = brute_force(&params, &c.walls, &c.bodies, &c.markers);
+        prop_assert_eq!(bits(&loads), bits(&o.loads), "loads differ: {:?} vs {:?}", loads, o.loads);
+        prop_assert_eq!(reaction.map(f64::to_bits), o.wall_reaction.map(f64::to_bits));
+        prop_assert_eq!(stats.touching_pairs, o.stats.touching_pairs);
+        prop_assert_eq!(stats.marker_pairs, o.stats.marker_pairs);
+        prop_assert_eq!(stats.wall_contacts, o.stats.wall_contacts);
+        prop_assert_eq!(stats.min_delta.to_bits(), o.stats.min_delta.to_bits());
+        prop_assert_eq!(stats.elastic_energy.to_bits(), o.stats.elastic_energy.to_bits());
+    }
+
+    #[test]
+    fn thread_count_does_not_change_a_bit(seed in any::<u64>()) {
+        let c = config(seed);
+        let params = params_for(seed);
+        let (l1, r1, _) = fast(&c, params, 1);
+        for t in [2, 3] {
+            let (lt, rt, _) = fast(&c, params, t);
+            prop_assert_eq!(bits(&l1), bits(&lt));
+            prop_assert_eq!(r1.map(f64::to_bits), rt.map(f64::to_bits));
+        }
+    }
+
+    #[test]
+    fn newtons_third_law(seed in any::<u64>()) {
+        let c = config(seed);
+        let (loads, reaction, _) = fast(&c, ContactParams::default(), 2);
+        let total: Vec3 = loads.iter().map(|l| l.force).sum::<Vec3>() + reaction;
+        let scale: f64 = loads.iter().map(|l| l.force.norm()).sum::<f64>() + reaction.norm();
+        prop_assert!(total.norm() <= 1e-13 * scale.max(1e-300), "Σ F = {total:?}, scale {scale}");
+        if c.walls.is_empty() {
+            prop_assert_eq!(reaction, Vec3::zeros());
+        }
+    }
+}
+
+/// The configurations above do make contacts (the tests would be vacuous otherwise): over 48
+/// seeds, most have touching pairs, several have wall contacts and overlaps (`δ < 0`).
+#[test]
+fn configurations_exercise_the_model() {
+    let (mut touching, mut walls, mut overlap, mut pairs) = (0, 0, 0, 0);
+    for seed in 0..48u64 {
+        let c = config(seed);
+        let o = brute_force(&ContactParams::default(), &c.walls, &c.bodies, &c.markers);
+        touching += (o.stats.touching_pairs > 0) as usize;
+        walls += (o.stats.wall_contacts > 0) as usize;
+        overlap += (o.stats.min_delta < 0.0) as usize;
+        pairs += o.stats.marker_pairs;
+    }
+    assert!(touching >= 40 && walls >= 10 && overlap >= 5, "{touching} {walls} {overlap} {pairs}");
+}
+
+/// In one thread (with several, each thread's scratch grows until that thread has met the
+/// largest pair, which depends on the scheduling; then it stops growing too).
+#[test]
+fn warm_evaluation_does_not_grow_buffers() {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    pool.install(|| {
+        for seed in 0..8u64 {
+            let c = config(seed);
+            let mut ct = Contacts::new(ContactParams::default(), c.walls, &c.bodies, &c.markers).unwrap();
+            ct.compute(&c.bodies, &c.markers);
+            let cap = ct.buffer_capacity();
+            for _ in 0..3 {
+                ct.compute(&c.bodies, &c.markers);
+                assert_eq!(ct.buffer_capacity(), cap);
+            }
+        }
+    });
+}
+
+#[test]
+fn sub_cycling_conserves_linear_momentum() {
+    // Free bodies only, no walls, no external loads: Σ m v is conserved to round-off through
+    // contacts (every marker pair applies ±f to two bodies in the same sub-step).
+    for seed in 0..8u64 {
+        let mut c = config(seed);
+        c.walls = Walls::none();
+        for b in &mut c.bodies {
+            *b = RigidBody::new(b.shape().clone(), 1.25, Motion::Free)
+                .with_position(b.position)
+                .with_orientation(b.orientation)
+                .with_velocities(b.velocity, b.angular_velocity);
+        }
+        let p0: Vec3 = c.bodies.iter().map(|b| b.linear_momentum()).sum();
+        let scale: f64 = c.bodies.iter().map(|b| b.linear_momentum().norm()).sum();
+        let mut ct = Contacts::new(ContactParams::default(), c.walls, &c.bodies, &c.markers).unwrap();
+        let mut impulse = 0.0f64;
+        for _ in 0..20 {
+            let avg = ct.advance(&mut c.bodies, &c.markers, 8);
+            impulse += avg.iter().map(|l| l.force.norm()).sum::<f64>();
+        }
+        let p1: Vec3 = c.bodies.iter().map(|b| b.linear_momentum()).sum();
+        assert!((p1 - p0).norm() <= 1e-14 * (scale + impulse), "seed {seed}: {p0:?} -> {p1:?}");
+    }
+}
