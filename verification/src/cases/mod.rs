@@ -68,7 +68,8 @@ pub fn all() -> Vec<Case> {
         },
         Case {
             name: "free_particles",
-            summary: "free bodies at gamma = 1.25: sphere spins at shear/2, falling cylinder's momentum budget",
+            summary:
+                "free bodies at gamma = 1.25: sphere spins at shear/2, falling cylinder's momentum budget",
             run: free_particles::run,
         },
     ]
