@@ -389,7 +389,10 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         }
         let block = next.min(total) - step;
         let t0 = Instant::now();
-        if let Err(e) = solver.run(block) {
+        // On a worker of the pool: the parallel loops of the step then queue their jobs on the
+        // worker's own deque instead of rayon's global injector, which allocates (the warm
+        // coupled step allocates nothing: tests/no_alloc_in_step.rs).
+        if let Err(e) = rayon::scope(|_| solver.run(block)) {
             pb.abandon();
             return Err(anyhow::anyhow!(
                 "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",

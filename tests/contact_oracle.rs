@@ -204,6 +204,7 @@ fn configurations_exercise_the_model() {
         overlap += (o.stats.min_delta < 0.0) as usize;
         pairs += o.stats.marker_pairs;
     }
+    eprintln!("EXERCISE {touching} {walls} {overlap} {pairs}");
     assert!(touching >= 40 && walls >= 10 && overlap >= 5, "{touching} {walls} {overlap} {pairs}");
 }
 

@@ -149,16 +149,31 @@ pub(crate) fn accumulate(
     reaction
 }
 
-/// Static bins of one body's markers in its body frame (built once).
+/// Edge of the cubes that group a body's markers into patches (lattice units): a patch of a
+/// surface holds ≈ 8 markers at spacing 0.7.
+const PATCH_EDGE: f64 = 2.0;
+
+/// Static patches of one body's markers (body frame, built once): the markers binned into
+/// cubes of edge [`PATCH_EDGE`]; every non-empty cube is a patch, with the bounding sphere of
+/// its markers. A query prunes whole patches with one signed-distance evaluation (module
+/// [`super`], "Narrow phase").
 #[derive(Clone, Debug)]
-struct BodyBins {
+struct Patches {
     geo: Geometry,
+    /// Per grid cell: its patch, or `u32::MAX` if empty.
+    cell_patch: Vec<u32>,
+    centre: Vec<Vec3>,
+    radius: Vec<f64>,
+    /// Patch `k` holds the markers `items[start[k]..start[k + 1]]` (increasing index).
     start: Vec<u32>,
     items: Vec<u32>,
+    /// Centre and half size of the axis-aligned box of all the body's markers (body frame).
+    box_centre: Vec3,
+    box_half: Vec3,
 }
 
-impl BodyBins {
-    fn new(markers: &[Marker], edge: f64) -> Self {
+impl Patches {
+    fn new(markers: &[Marker]) -> Self {
         let (mut lo, mut hi) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
         for m in markers {
             lo = lo.inf(&m.position);
@@ -167,32 +182,86 @@ impl BodyBins {
         if markers.is_empty() {
             (lo, hi) = (Vec3::zeros(), Vec3::zeros());
         }
-        let geo = Geometry::covering(&lo, &hi, edge, 8 * markers.len() + 64);
-        let (mut cell_of, mut start, mut items) = (Vec::new(), Vec::new(), Vec::new());
+        let geo = Geometry::covering(&lo, &hi, PATCH_EDGE, 8 * markers.len() + 64);
+        let (mut cell_of, mut cell_start, mut items) = (Vec::new(), Vec::new(), Vec::new());
         fill(
             geo.len(),
             markers.len(),
             |k| geo.clamped_index(&markers[k].position),
             &mut cell_of,
-            &mut start,
+            &mut cell_start,
             &mut items,
         );
-        Self { geo, start, items }
+        let mut p = Self {
+            geo,
+            cell_patch: vec![u32::MAX; geo.len()],
+            centre: Vec::new(),
+            radius: Vec::new(),
+            start: Vec::new(),
+            items,
+            box_centre: (lo + hi) * 0.5,
+            box_half: (hi - lo) * 0.5,
+        };
+        for c in 0..geo.len() {
+            let range = cell_start[c] as usize..cell_start[c + 1] as usize;
+            if range.is_empty() {
+                continue;
+            }
+            let (mut a, mut b) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
+            for &k in &p.items[range.clone()] {
+                a = a.inf(&markers[k as usize].position);
+                b = b.sup(&markers[k as usize].position);
+            }
+            let centre = (a + b) * 0.5;
+            let r = p.items[range.clone()]
+                .iter()
+                .map(|&k| (markers[k as usize].position - centre).norm())
+                .fold(0.0, f64::max);
+            p.cell_patch[c] = p.centre.len() as u32;
+            p.centre.push(centre);
+            p.radius.push(r);
+            p.start.push(range.start as u32);
+        }
+        p.start.push(p.items.len() as u32);
+        p
     }
 
-    /// Calls `f(k, marker)` for every marker with `|m − p| < rho` (body frame).
+    /// Calls `f(k)` for every patch `k` whose bounding sphere meets the ball `|x − p| < rho`
+    /// (body frame).
     #[inline(always)]
-    fn query(&self, markers: &[Marker], p: &Vec3, rho: f64, mut f: impl FnMut(usize, &Marker)) {
+    fn visit(&self, p: &Vec3, rho: f64, mut f: impl FnMut(usize)) {
         let Some(r) = self.geo.range(p, rho) else { return };
-        let rho2 = rho * rho;
-        for_cells(&self.geo, r, |c| {
-            for &k in &self.items[self.start[c] as usize..self.start[c + 1] as usize] {
-                let m = &markers[k as usize];
-                if (m.position - p).norm_squared() < rho2 {
-                    f(k as usize, m);
-                }
+        let mut test = |k: usize| {
+            let reach = rho + self.radius[k];
+            if (self.centre[k] - p).norm_squared() < reach * reach {
+                f(k);
             }
-        });
+        };
+        let cells = (0..3).map(|a| r[a][1] - r[a][0] + 1).product::<usize>();
+        if cells > self.centre.len() {
+            (0..self.centre.len()).for_each(&mut test);
+        } else {
+            for_cells(&self.geo, r, |c| {
+                let k = self.cell_patch[c];
+                if k != u32::MAX {
+                    test(k as usize);
+                }
+            });
+        }
+    }
+
+    /// Squared distance from `q` (body frame) to the box of the markers: a lower bound of the
+    /// squared distance from `q` to every marker of the body.
+    #[inline(always)]
+    fn box_distance2(&self, q: &Vec3) -> f64 {
+        let e = ((q - self.box_centre).abs() - self.box_half).sup(&Vec3::zeros());
+        e.norm_squared()
+    }
+
+    /// The markers of patch `k`.
+    #[inline(always)]
+    fn markers(&self, k: usize) -> &[u32] {
+        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
     }
 }
 
@@ -238,37 +307,72 @@ struct Ctx<'a, M> {
     poses: &'a [Pose],
     radius: &'a [f64],
     surface_tol: &'a [f64],
-    bins: &'a [BodyBins],
+    patches: &'a [Patches],
     bodies: &'a [RigidBody],
     markers: &'a [M],
 }
 
 impl<M: AsRef<[Marker]>> Ctx<'_, M> {
     /// The markers of body `a` that may lie within `reach` of a marker of body `b`, in world
-    /// coordinates: inside `b`'s bounding sphere grown by `reach` (static body-frame bins of
-    /// `a`), and within `reach` of `b`'s surface (`|sd_b| < reach + tol_b`, `tol_b` the
-    /// largest `|sd_b|` of `b`'s own markers: a marker within `reach` of one of `b`'s markers
-    /// is within `reach + tol_b` of `b`'s surface, since `sd_b` is a true distance).
+    /// coordinates (module [`super`], "Narrow phase"): `a`'s patches that meet `b`'s bounding
+    /// sphere grown by `reach`, then the patches and markers within `reach + tol_b` of `b`'s
+    /// surface (`|sd_b|`; `tol_b` the largest `|sd_b|` of `b`'s own markers). Exact pruning: a
+    /// marker within `reach` of one of `b`'s markers is within `reach + tol_b` of `b`'s
+    /// surface, and `|sd_b|` is 1-Lipschitz, so a patch whose centre has
+    /// `|sd_b| ≥ reach + tol_b + radius` holds no such marker.
     fn collect(&self, a: usize, b: usize, out: &mut Vec<WorldMarker>) {
         out.clear();
         let (pa, pb) = (&self.poses[a], &self.poses[b]);
-        let rho = self.radius[b] + self.reach + MARGIN;
-        let p = pa.rotation.tr_mul(&(pb.position - pa.position));
+        let ma = self.markers[a].as_ref();
         let shape = self.bodies[b].shape();
+        let rho = self.radius[b] + self.reach + MARGIN;
         let lim = self.reach + self.surface_tol[b] + MARGIN;
-        self.bins[a].query(self.markers[a].as_ref(), &p, rho, |k, m| {
-            let (r, x) = pa.marker_position(m);
-            let q = pb.rotation.tr_mul(&(x - pb.position));
-            if shape.signed_distance(&q).abs() < lim {
-                let (n, u) = pa.marker_normal_velocity(m, &r);
-                out.push(WorldMarker { index: k as u32, r, x, n, u });
+        // Body frame of `a` → body frame of `b`: q = R_bᵀ R_a m + R_bᵀ (x_a − x_b).
+        let rot = pb.rotation.tr_mul(&pa.rotation);
+        let shift = pb.rotation.tr_mul(&(pa.position - pb.position));
+        let centre_b = pa.rotation.tr_mul(&(pb.position - pa.position));
+        let patches = &self.patches[a];
+        let other = &self.patches[b];
+        let near = self.reach + MARGIN;
+        let near2 = near * near;
+        patches.visit(&centre_b, rho, |k| {
+            let q = rot * patches.centre[k] + shift;
+            let r = patches.radius[k];
+            if other.box_distance2(&q) >= (near + r) * (near + r)
+                || shape.signed_distance(&q).abs() >= lim + r
+            {
+                return;
+            }
+            for &i in patches.markers(k) {
+                let m = &ma[i as usize];
+                let q = rot * m.position + shift;
+                if other.box_distance2(&q) < near2 && shape.signed_distance(&q).abs() < lim {
+                    let (r, x) = pa.marker_position(m);
+                    let (n, u) = pa.marker_normal_velocity(m, &r);
+                    out.push(WorldMarker { index: i, r, x, n, u });
+                }
             }
         });
+    }
+
+    /// Whether no marker of `a` can come within `reach` of `b`'s markers: `a`'s bounding
+    /// sphere is farther than `reach` from the box of `b`'s markers, or `sd_b` at `a`'s centre
+    /// exceeds `a`'s bounding radius by `reach + tol_b` (1-Lipschitz, as above).
+    fn apart(&self, a: usize, b: usize) -> bool {
+        let (pa, pb) = (&self.poses[a], &self.poses[b]);
+        let c = pb.rotation.tr_mul(&(pa.position - pb.position));
+        let gap = self.radius[a] + self.reach + MARGIN;
+        self.patches[b].box_distance2(&c) >= gap * gap
+            || self.bodies[b].shape().signed_distance(&c) - self.radius[a]
+                >= self.reach + self.surface_tol[b] + MARGIN
     }
 
     /// The loads of body pair `(a, b)`, `a < b`.
     fn pair(&self, a: usize, b: usize, s: &mut Scratch) -> Slot {
         let Scratch { a: ma, b: mb, cell_of, start, items, active } = s;
+        if self.apart(a, b) || self.apart(b, a) {
+            return Slot::EMPTY;
+        }
         self.collect(a, b, ma);
         if ma.is_empty() {
             return Slot::EMPTY;
@@ -317,8 +421,10 @@ impl<M: AsRef<[Marker]>> Ctx<'_, M> {
         slot
     }
 
-    /// The loads of the walls on body `b` (free bodies only).
-    fn walls_on(&self, b: usize) -> Slot {
+    /// The loads of the walls on body `b` (free bodies only): patches within the cutoff of a
+    /// wall (centre distance minus patch radius), their markers against those walls; the hits
+    /// summed in the oracle's order (marker index, then wall order).
+    fn walls_on(&self, b: usize, s: &mut Scratch) -> Slot {
         let pose = &self.poses[b];
         let mut slot = Slot::EMPTY;
         if !pose.free || self.walls.is_empty() {
@@ -334,18 +440,48 @@ impl<M: AsRef<[Marker]>> Ctx<'_, M> {
         if !any {
             return slot;
         }
-        for m in self.markers[b].as_ref() {
-            let (r, x) = pose.marker_position(m);
-            let mut nu: Option<(Vec3, Vec3)> = None;
+        let ms = self.markers[b].as_ref();
+        let patches = &self.patches[b];
+        let active = &mut s.active;
+        active.clear();
+        for k in 0..patches.centre.len() {
+            let c = pose.position + pose.rotation * patches.centre[k];
+            let mut hit = [false; 6];
+            let mut any = false;
             for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
-                if !near[w] || wall_distance(*axis, *plane, nhat, &x) >= cutoff {
-                    continue;
-                }
-                let (n, u) = *nu.get_or_insert_with(|| pose.marker_normal_velocity(m, &r));
-                if let Some(h) = wall_force(self.p, *axis, *plane, nhat, &x, &n, &u) {
-                    slot.add_wall(&h.force, &r, h.delta, h.elastic_energy(self.p));
+                hit[w] =
+                    near[w] && wall_distance(*axis, *plane, nhat, &c) - patches.radius[k] < cutoff + MARGIN;
+                any |= hit[w];
+            }
+            if !any {
+                continue;
+            }
+            for &i in patches.markers(k) {
+                let m = &ms[i as usize];
+                let (r, x) = pose.marker_position(m);
+                let mut nu: Option<(Vec3, Vec3)> = None;
+                for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
+                    if !hit[w] || wall_distance(*axis, *plane, nhat, &x) >= cutoff {
+                        continue;
+                    }
+                    let (n, u) = *nu.get_or_insert_with(|| pose.marker_normal_velocity(m, &r));
+                    if let Some(h) = wall_force(self.p, *axis, *plane, nhat, &x, &n, &u) {
+                        active.push(Active {
+                            i,
+                            j: w as u32,
+                            f: h.force,
+                            ri: r,
+                            rj: r,
+                            delta: h.delta,
+                            energy: h.elastic_energy(self.p),
+                        });
+                    }
                 }
             }
+        }
+        active.sort_unstable_by_key(|h| (h.i, h.j));
+        for h in active.iter() {
+            slot.add_wall(&h.f, &h.ri, h.delta, h.energy);
         }
         slot
     }
@@ -364,7 +500,7 @@ pub struct Contacts {
     radius: Vec<f64>,
     surface_tol: Vec<f64>,
     marker_counts: Vec<usize>,
-    bins: Vec<BodyBins>,
+    patches: Vec<Patches>,
     big: Vec<bool>,
     small: Vec<u32>,
     cell_edge: f64,
@@ -427,13 +563,7 @@ impl Contacts {
         let small: Vec<u32> = (0..radius.len()).filter(|&b| !big[b]).map(|b| b as u32).collect();
         let r_small = small.iter().map(|&b| radius[b as usize]).fold(0.0, f64::max);
         let cell_edge = 2.0 * r_small + reach + 2.0 * MARGIN;
-        // Body bins of about half a typical radius: a typical partner's query sphere covers a
-        // few bins per axis, on small and large bodies alike.
-        let bins = markers
-            .iter()
-            .zip(&radius)
-            .map(|(m, &r)| BodyBins::new(m.as_ref(), reach.max(0.5 * r.min(r_med))))
-            .collect();
+        let patches = markers.iter().map(|m| Patches::new(m.as_ref())).collect();
         let wall_list = walls.iter().map(|(a, _, p, n)| (a, p, n)).collect();
         let n = bodies.len();
         Ok(Self {
@@ -443,7 +573,7 @@ impl Contacts {
             reach,
             surface_tol,
             marker_counts: markers.iter().map(|m| m.as_ref().len()).collect(),
-            bins,
+            patches,
             big,
             small,
             cell_edge,
@@ -572,7 +702,7 @@ impl Contacts {
             poses: &self.poses,
             radius: &self.radius,
             surface_tol: &self.surface_tol,
-            bins: &self.bins,
+            patches: &self.patches,
             bodies,
             markers,
         };
@@ -589,7 +719,11 @@ impl Contacts {
         self.wall_slots.clear();
         self.wall_slots.resize(bodies.len(), Slot::EMPTY);
         if self.reach > 0.0 && !self.wall_list.is_empty() {
-            self.wall_slots.par_iter_mut().enumerate().for_each(|(b, slot)| *slot = ctx.walls_on(b));
+            self.wall_slots.par_iter_mut().enumerate().for_each(|(b, slot)| {
+                let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+                let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
+                *slot = ctx.walls_on(b, &mut s);
+            });
         }
         self.loads.resize(bodies.len(), ContactLoad::ZERO);
         self.wall_reaction =

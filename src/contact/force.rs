@@ -83,12 +83,18 @@ pub(crate) fn pair_force(p: &ContactParams, i: &WorldMarker, j: &WorldMarker) ->
         return None;
     }
     let dn = i.n - j.n;
-    let len = dn.norm();
-    if len < 1e-12 {
+    let len2 = dn.norm_squared();
+    if len2 < 1e-24 {
         return None;
     }
-    let nhat = dn / len;
     let d = j.x - i.x;
+    // Cheap rejection (no square root) of the pairs far outside δ_λ < λ, with a relative
+    // margin of 1e-6 over the rounding of `|d|² − (d·Δn)²/|Δn|²`; the exact test follows.
+    let s = d.dot(&dn);
+    if d.norm_squared() - s * s / len2 >= p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12 {
+        return None;
+    }
+    let nhat = dn / len2.sqrt();
     let delta = d.dot(&nhat);
     let dl = (d - nhat * delta).norm();
     if dl >= p.lambda {
