@@ -120,7 +120,10 @@ fn unknown_section_lists_allowed() {
     assert_err(
         &format!("{BASE}\n[output]\nevery = 1\n"),
         "output",
-        &["unknown key", "domain, fluid, boundaries, initial, run, ibm, contacts, particles, random_particles"],
+        &[
+            "unknown key",
+            "domain, fluid, boundaries, initial, run, ibm, contacts, particles, random_particles",
+        ],
     );
 }
 
