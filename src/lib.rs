@@ -29,4 +29,5 @@ pub mod lattice;
 pub mod lbm;
 pub mod rigid;
 pub mod run;
+pub mod settle;
 pub mod util;

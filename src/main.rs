@@ -2,6 +2,7 @@
 //!
 //! ```text
 //! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume]
+//! slurry settle CASE.toml --out DIR [--speed V] [--check-every N] [--min-steps N] [--max-steps N]
 //! slurry check CASE.toml
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! ```
@@ -21,6 +22,7 @@ use slurry::case::{Case, CaseError, InitialKind};
 use slurry::lattice::Face;
 use slurry::lbm::Collision;
 use slurry::run::{run_case, RunOptions};
+use slurry::settle::{settle_case, SettleOptions};
 
 /// Particle-resolved simulation of dense suspensions (lattice Boltzmann).
 #[derive(Parser, Debug)]
@@ -35,6 +37,8 @@ struct Cli {
 enum Command {
     /// Run a case file and write its output into a directory.
     Run(RunArgs),
+    /// Let a case's particles settle into a bed under gravity (no impeller) and store it.
+    Settle(SettleArgs),
     /// Validate a case file and print what it describes.
     Check(CheckArgs),
     /// Measure the fused kernel's throughput (MLUPS) on periodic boxes.
@@ -65,6 +69,34 @@ struct BenchArgs {
     /// Write the results as a JSON array to this file (atomically).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+}
+
+/// `slurry settle`.
+#[derive(Args, Debug)]
+struct SettleArgs {
+    /// The case file: free particles, gravity and a `[contacts]` section.
+    case: PathBuf,
+    /// Output directory for `bed.h5` and `bed_particles.toml`.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+    /// Stop when the mean particle speed falls below this (lattice units).
+    #[arg(long, default_value_t = 1e-4)]
+    speed: f64,
+    /// Steps between checks of the stopping rule.
+    #[arg(long, default_value_t = 200)]
+    check_every: u64,
+    /// No stop before this many steps.
+    #[arg(long, default_value_t = 2000)]
+    min_steps: u64,
+    /// Give up after this many steps (the bed is written, marked as not settled; exit 1).
+    #[arg(long, default_value_t = 1_000_000)]
+    max_steps: u64,
+    /// Number of worker threads (default: all cores, or RAYON_NUM_THREADS).
+    #[arg(long, value_name = "N")]
+    threads: Option<NonZeroUsize>,
+    /// No progress output.
+    #[arg(long)]
+    quiet: bool,
 }
 
 /// `slurry run`.
@@ -103,6 +135,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
+        Command::Settle(a) => cmd_settle(a),
         Command::Check(a) => cmd_check(a),
         Command::Bench(a) => cmd_bench(a),
     };
@@ -154,6 +187,47 @@ fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
             summary.max_mach,
             summary.relative_mass_change,
             a.out.display()
+        );
+    }
+    Ok(())
+}
+
+fn cmd_settle(a: SettleArgs) -> anyhow::Result<()> {
+    let case = Case::from_file(&a.case)?;
+    if !(a.speed.is_finite() && a.speed > 0.0) {
+        return Err(BadInput(format!("--speed {}: must be positive and finite", a.speed)).into());
+    }
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = a.threads {
+        builder = builder.num_threads(n.get());
+    }
+    let pool =
+        builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
+    let opts = SettleOptions {
+        speed: a.speed,
+        check_every: a.check_every,
+        min_steps: a.min_steps,
+        max_steps: a.max_steps,
+        quiet: a.quiet,
+    };
+    let s = pool
+        .install(|| settle_case(&case, &a.out, opts))
+        .with_context(|| format!("settling {} failed", a.case.display()))?;
+    eprintln!(
+        "{}: {} steps in {:.1} s, mean particle speed {:.2e}, mean height {:.2}; bed in {} and {}",
+        if s.settled { "settled" } else { "NOT settled (max steps reached)" },
+        s.steps,
+        s.seconds,
+        s.mean_speed,
+        s.mean_height,
+        s.bed_h5.display(),
+        s.bed_toml.display()
+    );
+    if !s.settled {
+        anyhow::bail!(
+            "the stopping rule (mean speed < {:e}) was not met within {} steps",
+            a.speed,
+            a.max_steps
         );
     }
     Ok(())

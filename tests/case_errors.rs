@@ -294,14 +294,14 @@ fn particle_velocities() {
 
 #[test]
 fn particles_must_lie_inside_the_box() {
-    // z: the cylinder (half length 6) at z = 5 reaches -1; allowed 0 .. 47.
+    // z: the cylinder (half length 6) at z = 5 reaches -1; allowed -0.5 .. 47.5 (the walls).
     rejects(
         &p_edit("position", "position = [20.0, 16.0, 5.0]"),
-        &["particles[0].position = [20, 16, 5]", "within [0, 47]", "z must be in [6.0000, 41.0000]"],
+        &["particles[0].position = [20, 16, 5]", "within [-0.5, 47.5]", "z must be in [5.5000, 41.5000]"],
     );
     rejects(
         &p_edit("position", "position = [20.0, 29.0, 30.0]"),
-        &["particles[0].position = [20, 29, 30]", "on y", "within [0, 31]"],
+        &["particles[0].position = [20, 29, 30]", "on y", "within [-0.5, 31.5]"],
     );
     rejects(&p_edit("length", "length = 60.0"), &["particles[0].position", "does not fit between the walls"]);
     // Periodic x: the centre must lie in the period; the particle must be shorter than it.

@@ -28,9 +28,11 @@ pub const MARKER_SPACING_RANGE: (f64, f64) = (0.3, 1.0);
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-6;
 /// Largest allowed `random_particles.volume_fraction`.
 pub const MAX_VOLUME_FRACTION: f64 = 0.6;
-/// Spacing kept between explicit particles and the walls on walled axes: half a lattice
-/// spacing beyond the wall's own half spacing, so the particle lies between the outermost nodes.
-pub const EXPLICIT_WALL_MARGIN: f64 = 0.5;
+/// Spacing kept between explicit particles and the walls on walled axes: none — a particle
+/// must lie between the walls (at `−0.5` and `n − 0.5`), where every marker has an IBM stencil.
+/// A settled bed (`slurry settle`) has particles resting closer than half a spacing to the
+/// floor (the contact force's range is δ0 = 0.5), and its `[[particles]]` must be accepted.
+pub const EXPLICIT_WALL_MARGIN: f64 = 0.0;
 /// Spacing kept between random particles and the walls (default region).
 pub const RANDOM_WALL_MARGIN: f64 = 1.0;
 
@@ -776,7 +778,7 @@ impl Case {
                         let allowed = if lo + e[a] <= hi - e[a] {
                             format!(
                                 "the particle reaches {:.4} .. {:.4} on {ax} (half extent {:.4}); it must stay within [{lo}, {hi}] \
-                                 (0.5 from the walls at -0.5 and {}), so {ax} must be in [{:.4}, {:.4}]",
+                                 (between the walls at -0.5 and {}), so {ax} must be in [{:.4}, {:.4}]",
                                 x - e[a],
                                 x + e[a],
                                 e[a],
@@ -787,7 +789,7 @@ impl Case {
                             )
                         } else {
                             format!(
-                                "the particle is {:.4} across on {}: it does not fit between the walls (at most {} with 0.5 to spare at each)",
+                                "the particle is {:.4} across on {}: it does not fit between the walls (at most {})",
                                 2.0 * e[a],
                                 AXES[a],
                                 hi - lo
