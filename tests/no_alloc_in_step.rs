@@ -39,16 +39,13 @@ fn warm_coupled_steps_do_not_allocate() {
     let mut fluid =
         Fluid::<f32>::new(Grid::new(32, 32, 40), FluidParams::bgk(0.05), Boundaries::closed_box()).unwrap();
     fluid.initialize(|_, _, _| (1.0, [0.0; 3]));
+    // Four horizontal cylinders (axis along y) on the floor, side by side, each within the
+    // contact range of the floor and of its neighbours: contacts act during the counted steps.
     let bodies: Vec<RigidBody> = (0..4)
         .map(|k| {
-            let k = k as f64;
             RigidBody::new(Arc::new(Cylinder::new(6.0, 12.0)), 1.25, Motion::Free)
-                .with_position(Vec3::new(
-                    9.0 + 13.0 * (k % 2.0),
-                    9.0 + 13.0 * (k / 2.0).floor(),
-                    8.0 + 6.0 * k,
-                ))
-                .with_orientation(Quat::from_euler_angles(0.3 * k, 0.8, 0.1))
+                .with_position(Vec3::new(5.0 + 6.6 * k as f64, 16.0, 2.9))
+                .with_orientation(Quat::from_euler_angles(std::f64::consts::FRAC_PI_2, 0.0, 0.0))
         })
         .collect();
     let params = CouplingParams {
@@ -64,5 +61,7 @@ fn warm_coupled_steps_do_not_allocate() {
     let before = ALLOCATIONS.load(Ordering::SeqCst);
     rayon::scope(|_| c.run(20)).unwrap();
     let during = ALLOCATIONS.load(Ordering::SeqCst) - before;
+    let touching = (0..4).filter(|&b| c.loads(b).contact_force.norm() > 0.0).count();
+    assert_eq!(touching, 4, "every cylinder should be in contact");
     assert_eq!(during, 0, "{during} allocations in 20 warm coupled steps");
 }

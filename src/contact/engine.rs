@@ -1,4 +1,4 @@
-//! [`Contacts`]: broad phase (cell list on bounding spheres), narrow phase (marker bins),
+//! [`Contacts`]: broad phase (cell list on bounding spheres), narrow phase (marker patches and bins),
 //! parallel per-pair evaluation and the serial, ordered accumulation into per-body loads.
 
 use std::sync::Mutex;
@@ -489,7 +489,7 @@ impl<M: AsRef<[Marker]>> Ctx<'_, M> {
 
 /// The contact model of Derksen (2020, Table 1) between the surface markers of rigid bodies
 /// and against the box walls (module [`super`]): owns the per-body data computed once (bounding
-/// radii, marker bins) and every buffer of an evaluation, so that a warm evaluation does not
+/// radii, marker patches) and every buffer of an evaluation, so that a warm evaluation does not
 /// allocate.
 #[derive(Debug)]
 pub struct Contacts {
@@ -527,7 +527,7 @@ impl Contacts {
     /// (`markers[b]` belongs to `bodies[b]`, the same sets that are passed to every later
     /// call) inside `walls`. Computes once per body its bounding radius (largest marker
     /// distance from the centre of mass), the largest `|signed_distance|` of its markers, and
-    /// static body-frame bins of its markers.
+    /// static body-frame patches of its markers.
     ///
     /// # Errors
     /// If the parameters are invalid ([`ContactParams::validate`]).
@@ -693,7 +693,19 @@ impl Contacts {
         self.stats.candidate_pairs = self.pairs.len();
         let threads = rayon::current_num_threads().max(1);
         while self.scratch.len() < threads {
-            self.scratch.push(Mutex::new(Scratch::default()));
+            // Sized up front for the largest body, so that which thread meets which pair does
+            // not decide when a buffer grows: a body contributes at most all its markers to a
+            // pair, its bins number at most `4 m + 64` (`collect`), and a marker has at most a
+            // handful of partners within `reach` (16 per marker reserved).
+            let m = self.marker_counts.iter().copied().max().unwrap_or(0);
+            self.scratch.push(Mutex::new(Scratch {
+                a: Vec::with_capacity(m),
+                b: Vec::with_capacity(m),
+                cell_of: Vec::with_capacity(m),
+                start: Vec::with_capacity(4 * m + 65),
+                items: Vec::with_capacity(m),
+                active: Vec::with_capacity(16 * m),
+            }));
         }
         let ctx = Ctx {
             p: &self.params,

@@ -104,7 +104,7 @@
 //! linear-in-time extrapolation, each free body stepped with constant-load semantics
 //! ([`Contacts::advance`] gives the scheme and why). With `RigidBody::step`
 //! (`v' = v + h F/m`, `x' = x + h(v + v')/2`) this is position Verlet for the spring
-//! (symplectic: elastic-only normal impacts return their kinetic energy to 0.3 %) and explicit
+//! (symplectic: elastic-only normal impacts return their kinetic energy to 0.4 %) and explicit
 //! Euler for the lubrication damping.
 //!
 //! ## Stability analysis and the default `n_sub`
@@ -154,16 +154,21 @@
 //!
 //! # Known deviations of the model (measured by `contacts_dry`)
 //!
-//! - With Table 1's parameters, a `d = 12` cylinder hitting the wall rim first at 0.05 comes to
-//!   0.154 of it, at the tip speed 0.104 the rim crosses the wall plane by 0.081; `d = 12`
-//!   spheres at 0.104 come to 0.085 (head-on) and 0.137 (oblique) of each other: closer than
-//!   `δ_sat`. Converged in `n_sub`: a property of the parameters (kinetic energy `∝ d³`, contact
-//!   area near a point or an edge `∝ d`). Flat and line contacts stay above 0.37.
+//! - With Table 1's parameters, point and edge impacts of `d = 12` bodies come closer than
+//!   `δ_sat`: a cylinder hitting the wall rim first comes to 0.154 of it at 0.05 and 0.035 at
+//!   0.075, and at the tip speed 0.104 the rim crosses the wall plane by 0.081; spheres come to
+//!   0.164 (0.075) and 0.086 (0.104) of each other head-on. Converged in `n_sub`: a property of
+//!   the parameters (kinetic energy `∝ d³`, contact area near a point or an edge `∝ d`). Flat
+//!   and line contacts stay above 0.37; at `d = 6` every impact stays above 0.25.
 //! - The elastic force is not the gradient of a potential (`w` and `n̂` change along a sliding
 //!   path: as marker pairs slide past each other, `½ k (δ0 − δ)² w` appears and vanishes
 //!   without the force doing that work), so oblique elastic-only impacts change the kinetic
-//!   energy: sphere pairs at 30° lose 9–14 % at `d = 6` (0.01–0.05) and gain 1.0–1.3 % at
-//!   `d = 12`, the same to 1e-4 for 4 … 32 sub-steps. Normal impacts conserve it to 0.3 %.
+//!   energy: sphere pairs at 30° lose 3–17 % at `d = 6` and change it by −0.4 … +1.6 % at
+//!   `d = 12` (impact speeds 0.005–0.104), the same to 1e-4 for 4 … 32 sub-steps. Normal
+//!   impacts conserve it to 0.4 %.
+//!   With lubrication, `E = KE + Σ ½ k (δ0 − δ)² w` never exceeds its initial value, but single
+//!   sub-steps may raise it (by up to 8.5e-4 of the initial energy, erratically in `n_sub`):
+//!   pairs switch on with a finite force when `n_i·n_j` crosses 0.
 //!
 //! # Cost
 //!

@@ -1,5 +1,6 @@
 //! The verification cases, and helpers they share.
 
+pub mod contacts_dry;
 pub mod couette;
 pub mod free_particles;
 pub mod fused_vs_reference;
@@ -71,6 +72,11 @@ pub fn all() -> Vec<Case> {
             summary:
                 "free bodies at gamma = 1.25: sphere spins at shear/2, falling cylinder's momentum budget",
             run: free_particles::run,
+        },
+        Case {
+            name: "contacts_dry",
+            summary: "dry collisions (Table 1 contacts): momentum, energy, restitution, closest approach",
+            run: contacts_dry::run,
         },
     ]
 }

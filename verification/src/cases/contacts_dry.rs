@@ -1,0 +1,718 @@
+//! # Dry contacts: collisions without fluid (the contact model of Table 1 alone)
+//!
+//! **What.** `slurry::contact` (Derksen 2020, Table 1, between surface markers; module doc
+//! there) with the default parameters and the default number of sub-steps
+//! (`DEFAULT_SUBSTEPS`), advanced by `Contacts::advance` (position-Verlet sub-cycling), no
+//! fluid, no gravity. Bodies of density ratio `γ = 1.25` (the paper's), spheres of diameter
+//! `d` and cylinders `ℓ = d`, at the half scale `d = 6` and the paper's `d = 12`. Surfaces start
+//! `1.2` apart (just outside `δ_d = 1`), body 0 moving at the impact speed, body 1 at rest.
+//!
+//! Setups: `sphere_head_on`; `sphere_oblique` (line of centres at 30° to the motion);
+//! `cylinder_side` (parallel axes, mantle on mantle); `cylinder_end` (coaxial, cap on cap,
+//! markers aligned: the stiffest contact); `wall_flat`, `wall_side`, `wall_edge` (a cylinder
+//! falling onto the floor cap down, mantle down, and tilted by 45°, rim first). Impact speeds
+//! 0.01 … 0.104 (0.104 = π D N, the paper's impeller tip speed, the fastest impact to expect);
+//! the full tier adds 0.005, 0.035, 0.075.
+//!
+//! **Checks (metric, tolerance, why).**
+//! - `momentum_conservation`: `max_t |P(t) − P(0)|/|P(0)|` over every two-body run and every
+//!   sub-step. ≤ 1e-13: each marker pair applies `+f` and `−f` to its two bodies in the same
+//!   sub-step, so `Σ m v` changes only by round-off (≈ 1e-16 per update, a few 10³ sub-steps);
+//!   a force applied to one side only, or on different sub-steps, gives O(1e-2).
+//! - `elastic_ke_change_normal_impacts`: lubrication off, `|KE(end) − KE(0)|/KE(0)` after
+//!   the bodies separate, worst over the normal impacts (every setup but `sphere_oblique`).
+//!   ≤ 1 %: the position-Verlet sub-steps are symplectic for the spring (no drift through a
+//!   contact), and a head-on path is retraced on the way out, so the elastic work in equals the
+//!   work out to `O(h²)`; measured ≤ 0.34 %.
+//! - **Known deviation (reported, not checked): oblique elastic impacts do not conserve KE**
+//!   (table `elastic only`, setup 1: at `d = 6` the spheres lose 3–17 % of it, most at
+//!   0.02–0.05; at `d = 12` it changes by −0.4 … +1.6 %; full tier). The elastic force of Table 1,
+//!   `−k(δ0 − δ) w n̂`, is not the gradient of a potential: `w` (tangential distance) and `n̂`
+//!   (marker normals) change along a sliding path, and the missing terms
+//!   `½ k (δ0 − δ)² ∇w`, … do net work as marker pairs slide past each other. It is the model,
+//!   not the integration: the change is the same to 1e-4 for 4, 8, 16, 32 sub-steps.
+//! - `dissipation_lubricated`: with lubrication, `KE(0) − KE(end) ≥ 0` for every run (the
+//!   lubrication power `−(kⁿ|Δuⁿ|² + kᵗ|Δuᵗ|²)(1/δ* − 1/δ_d) w` is never positive). No
+//!   tolerance.
+//! - `energy_never_exceeds_initial`: with lubrication, `max_t (E(t) − E(0))/E(0)`,
+//!   `E = KE + Σ ½ k (δ0 − δ)² w` (the elastic energy stored in the interacting pairs), checked
+//!   after every sub-step of every run. ≤ 1e-12 (measured: 0): the lubrication acts from
+//!   `δ_d = 1`, before the spring (`δ0 = 0.5`) stores anything, and only removes energy.
+//! - **Known deviation (reported in the `energy_rise` column, not checked): `E` is not
+//!   monotone sub-step by sub-step.** Single sub-steps raise `E` by up to 8.5e-4 `E(0)`
+//!   (`cylinder_side`, `d = 12`, 0.075; full tier), erratically in the number of sub-steps
+//!   (1.9e-6, 8.5e-4, 2.4e-4, 6.5e-4 for 4, 8, 16, 32): not the integration but the model, whose
+//!   elastic force is not the gradient of the stored energy (above) and whose pairs switch on
+//!   with a finite force when `n_i·n_j` crosses 0.
+//! - `closest_approach`: the smallest signed distance of any marker of one body to the other
+//!   body's surface (its `signed_distance` in its own frame) or to the wall, over every
+//!   sub-step in contact, worst over the runs: ≥ `δ_sat = 0.2` (the saturation distance: closer
+//!   than that the lubrication stops growing). Runs: every setup at `d = 6`; at `d = 12` the
+//!   flat and line contacts at every speed, the point and edge contacts (spheres, rim on the
+//!   wall) below 0.05.
+//! - **Known deviation (reported in table `point and edge impacts`, not checked): with Table
+//!   1's parameters, point and edge impacts of `d = 12` bodies at ≥ 0.05 come closer than
+//!   `δ_sat`:** spheres head-on 0.246 (0.05), 0.164 (0.075), 0.086 (0.104), oblique 0.206 and
+//!   0.137 at 0.075 and 0.104; a cylinder rim first on the wall 0.154 (0.05), 0.035 (0.075) and
+//!   −0.081 at the tip speed 0.104 (the rim crosses the wall plane). The kinetic energy
+//!   `½ m u²` grows as `d³` while the contact area near a point or an edge (and so the
+//!   lubrication and spring force) grows as `d`; flat and line contacts stop at 0.37–0.75.
+//!   Converged in the number of sub-steps (4 … 32 agree to 3e-3): a property of the
+//!   parameters, not of the integration. In the liquid the resolved lubrication slows the
+//!   approach before contact, so this dry test is the worst case.
+//! - `saturated_amplification_matches_analysis`: the stability analysis (module doc of
+//!   `slurry::contact`) in its exact form. Two cylinders cap on cap (markers aligned) or a
+//!   cylinder cap down on the wall, surfaces `0.1` apart (inside `δ_sat`), elastic part off,
+//!   relative normal velocity `u0 = 1e-10` (the two bodies at `±u0/2`: zero centre-of-mass
+//!   velocity, so that `u` is not a small difference of large velocities). The motion is
+//!   normal, so `δ_λ` and `w` stay fixed, and every cap pair is saturated: the damping is linear
+//!   with a constant `c` (`= −∂F/∂u`, measured from one evaluation), and per sub-step
+//!   `u ← (1 − c h/m_red) u`. Metric: `|g/g_pred − 1|` with `g = u(1)/u(0)` after one fluid
+//!   step, `g_pred = (1 − c h/m_red)^{n_sub}`, for `n_sub = 4, 8, 16`. ≤ 1e-9: the few rim–cap
+//!   cross pairs are not saturated and their coefficient moves with the gap, by `O(u0)` over
+//!   the step (2e-5 at `u0 = 1e-4`, 2e-11 here), plus round-off of ≤ 16 updates. The table shows
+//!   `n_sub = 4` unstable for the aligned caps at `d = 6` (`|g| = 7.9 > 1`).
+//! - `saturated_stability_d6`, `saturated_monotone_d12`: at the default `n_sub`, the largest
+//!   `b = c h/m_red` of these contacts: `< 2` at `d = 6` (explicit Euler damping stable) and
+//!   `≤ 1` at `d = 12` (monotone: the relative velocity never reverses).
+//!
+//! **Tables.** Restitution `e = −u_n(end)/u_n(0)` (`u_n` the approach velocity along the
+//! contact normal: the line of centres for spheres, at first touch and at the end; the
+//! approach direction otherwise; `e = 0` if the bodies end stuck, i.e. still in contact with a
+//! kinetic energy of relative motion below 1e-10 of the initial), closest approach, and the
+//! energy and momentum metrics, per setup and speed. Compared with
+//! `verification/ref/contacts_dry-<tier>.ref` (bitwise deterministic; the runs are smooth, so
+//! libm differences across platforms stay at the 1e-12 level).
+//!
+//! **Cost (reported, not checked; columns `config`, `threads`, `bodies` compared).** One
+//! `Contacts::compute`, one thread, minimum of 200 calls: `d = 12`, `ℓ = d` cylinders side by
+//! side, cap on cap, cap on the wall, mantle on the wall, surfaces 0.5 apart. Full tier, also:
+//! 100 such cylinders with random orientations on a jittered lattice in a closed 90 × 90 × 80
+//! box, settled for 3000 steps under net weight (`g = 2e-3`) with a linear drag (terminal speed
+//! 0.05, a stand-in for the fluid; rotational drag `36 ×` that) by `Contacts::advance` (a loose
+//! bed, `φ ≈ 0.36` below its top, still spreading slowly: frictionless cylinders), then one
+//! evaluation with 1 and 2 threads (minimum of 7).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use slurry::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
+use slurry::rigid::{Cylinder, Marker, Motion, Quat, RigidBody, Shape, Sphere, Vec3, DEFAULT_MARKER_SPACING};
+use slurry::util::SplitMix64;
+
+use crate::{CaseOutput, Check, Table, Tier};
+
+const CASE: &str = "contacts_dry";
+/// Density ratio of the paper's particles.
+const GAMMA: f64 = 1.25;
+/// Initial surface gap: just outside the lubrication range `δ_d = 1`.
+const GAP0: f64 = 1.2;
+/// The impeller tip speed of the paper (`π D N = π · 132/4000`), the fastest impact expected.
+pub const TIP_SPEED: f64 = 0.104;
+
+/// The collision configurations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Setup {
+    /// Two spheres, head-on along x (one at rest).
+    SphereHeadOn,
+    /// Two spheres, line of centres at 30° to the motion.
+    SphereOblique,
+    /// Two cylinders `ℓ = d`, parallel axes (z), approaching along x: mantle on mantle.
+    CylinderSide,
+    /// Two coaxial cylinders `ℓ = d` approaching along their axis: cap on cap, markers
+    /// aligned (the stiffest contact).
+    CylinderEnd,
+    /// A cylinder falling onto the floor with its cap down.
+    WallFlat,
+    /// A cylinder falling onto the floor on its mantle.
+    WallSide,
+    /// A cylinder tilted by 45° falling onto the floor rim first.
+    WallEdge,
+}
+
+impl Setup {
+    /// Every setup, in table order (the `setup` column is the index here).
+    pub const ALL: [Setup; 7] = [
+        Setup::SphereHeadOn,
+        Setup::SphereOblique,
+        Setup::CylinderSide,
+        Setup::CylinderEnd,
+        Setup::WallFlat,
+        Setup::WallSide,
+        Setup::WallEdge,
+    ];
+
+    /// Name for tables and metrics.
+    pub fn name(self) -> &'static str {
+        match self {
+            Setup::SphereHeadOn => "sphere_head_on",
+            Setup::SphereOblique => "sphere_oblique",
+            Setup::CylinderSide => "cylinder_side",
+            Setup::CylinderEnd => "cylinder_end",
+            Setup::WallFlat => "wall_flat",
+            Setup::WallSide => "wall_side",
+            Setup::WallEdge => "wall_edge",
+        }
+    }
+
+    fn is_sphere(self) -> bool {
+        matches!(self, Setup::SphereHeadOn | Setup::SphereOblique)
+    }
+
+    fn index(self) -> f64 {
+        Setup::ALL.iter().position(|&s| s == self).unwrap_or(0) as f64
+    }
+}
+
+/// Bodies, markers and walls of one scene.
+struct Scene {
+    bodies: Vec<RigidBody>,
+    markers: Vec<Vec<Marker>>,
+    walls: Walls,
+    /// Approach direction (from body 0 toward body 1 or the wall).
+    normal: Vec3,
+}
+
+fn floor() -> Walls {
+    Walls { planes: [[None, None], [None, None], [Some(0.0), None]] }
+}
+
+fn free_body(shape: Arc<dyn Shape>, pos: Vec3, q: Quat, v: Vec3) -> (RigidBody, Vec<Marker>) {
+    let m = shape.markers(DEFAULT_MARKER_SPACING);
+    let b = RigidBody::new(shape, GAMMA, Motion::Free).with_position(pos).with_orientation(q);
+    (b.with_velocities(v, Vec3::zeros()), m)
+}
+
+/// The scene of `setup` at diameter `d` (`ℓ = d` for cylinders), body 0 moving at `speed`
+/// toward body 1 (at rest) or the floor, surfaces `gap` apart.
+fn scene(setup: Setup, d: f64, speed: f64, gap: f64) -> Scene {
+    let sphere = || Arc::new(Sphere::new(d)) as Arc<dyn Shape>;
+    let cyl = || Arc::new(Cylinder::new(d, d)) as Arc<dyn Shape>;
+    let id = Quat::identity();
+    let two = |s: Arc<dyn Shape>, p1: Vec3, dir: Vec3| {
+        let (a, ma) = free_body(s.clone(), Vec3::zeros(), id, dir * speed);
+        let (b, mb) = free_body(s, p1, id, Vec3::zeros());
+        Scene { bodies: vec![a, b], markers: vec![ma, mb], walls: Walls::none(), normal: dir }
+    };
+    match setup {
+        Setup::SphereHeadOn => two(sphere(), Vec3::x() * (d + gap), Vec3::x()),
+        Setup::SphereOblique => {
+            let (s, c) = std::f64::consts::FRAC_PI_6.sin_cos();
+            two(sphere(), Vec3::new(c, s, 0.0) * (d + gap), Vec3::x())
+        }
+        Setup::CylinderSide => two(cyl(), Vec3::x() * (d + gap), Vec3::x()),
+        Setup::CylinderEnd => two(cyl(), Vec3::z() * (d + gap), Vec3::z()),
+        Setup::WallFlat | Setup::WallSide | Setup::WallEdge => {
+            let q = match setup {
+                Setup::WallFlat => id,
+                Setup::WallSide => Quat::from_axis_angle(&Vec3::x_axis(), std::f64::consts::FRAC_PI_2),
+                _ => Quat::from_axis_angle(&Vec3::x_axis(), std::f64::consts::FRAC_PI_4),
+            };
+            let (mut a, ma) = free_body(cyl(), Vec3::zeros(), q, -Vec3::z() * speed);
+            let low = ma.iter().map(|m| a.to_world(&m.position).z).fold(f64::INFINITY, f64::min);
+            a.position.z = gap - low;
+            Scene { bodies: vec![a], markers: vec![ma], walls: floor(), normal: -Vec3::z() }
+        }
+    }
+}
+
+/// What one collision measured.
+#[derive(Clone, Copy, Debug)]
+pub struct Outcome {
+    /// Restitution coefficient (module doc); 0 if the bodies end stuck.
+    pub restitution: f64,
+    /// Whether the bodies separated (no interacting pair left) before the run ended.
+    pub separated: bool,
+    /// `max_t |P(t) − P(0)|/|P(0)|` (two bodies; 0 for a wall run).
+    pub momentum_err: f64,
+    /// `(KE(end) − KE(0))/KE(0)`.
+    pub ke_change: f64,
+    /// Largest increase of `E = KE + U_el` over one sub-step, relative to `E(0)`.
+    pub energy_rise: f64,
+    /// `max_t (E(t) − E(0))/E(0)` over every sub-step.
+    pub energy_excess: f64,
+    /// Closest approach of a marker to the other body's surface or to the wall.
+    pub closest: f64,
+    /// Fluid steps run.
+    pub steps: usize,
+}
+
+/// Kinetic energy of the motion relative to the centre of mass (all of it for one body
+/// against a wall).
+fn relative_ke(bs: &[RigidBody]) -> f64 {
+    let ke: f64 = bs.iter().map(|b| b.kinetic_energy()).sum();
+    if bs.len() == 1 {
+        return ke;
+    }
+    let p: Vec3 = bs.iter().map(|b| b.linear_momentum()).sum();
+    let m: f64 = bs.iter().map(|b| b.mass()).sum();
+    ke - 0.5 * p.norm_squared() / m
+}
+
+/// Runs `setup` at `speed` with `params` and `n_sub` sub-steps per fluid step.
+pub fn collide(setup: Setup, d: f64, speed: f64, params: ContactParams, n_sub: usize) -> Outcome {
+    let Scene { mut bodies, markers, walls, normal } = scene(setup, d, speed, GAP0);
+    let mut ct = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
+    let mut diag = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
+    let momentum = |bs: &[RigidBody]| bs.iter().map(|b| b.linear_momentum()).sum::<Vec3>();
+    let energy = |bs: &[RigidBody]| bs.iter().map(|b| b.kinetic_energy()).sum::<f64>();
+    let approach = |bs: &[RigidBody], n: &Vec3| {
+        let dv = if bs.len() == 2 { bs[0].velocity - bs[1].velocity } else { bs[0].velocity };
+        dv.dot(n)
+    };
+    let centres = |bs: &[RigidBody]| (bs[1].position - bs[0].position).normalize();
+    let (p0, e0, ke_rel0) = (momentum(&bodies), energy(&bodies), relative_ke(&bodies));
+    let mut u0 = approach(&bodies, &normal);
+    let mut touched = false;
+    let (mut momentum_err, mut energy_rise, mut closest) = (0.0f64, f64::NEG_INFINITY, f64::INFINITY);
+    let mut energy_excess = f64::NEG_INFINITY;
+    let mut e_prev = e0;
+    let max_steps = (3.0 / speed).ceil() as usize + 400;
+    let (mut steps, mut separated, mut stuck) = (0, false, false);
+    while steps < max_steps && !separated && !stuck {
+        let mut in_contact = false;
+        ct.advance_with(&mut bodies, &markers, n_sub, |_, bs, _| {
+            diag.compute(bs, &markers);
+            let st = *diag.stats();
+            let e = energy(bs) + st.elastic_energy;
+            energy_rise = energy_rise.max((e - e_prev) / e0);
+            energy_excess = energy_excess.max((e - e0) / e0);
+            e_prev = e;
+            momentum_err = momentum_err.max((momentum(bs) - p0).norm() / p0.norm());
+            if st.marker_pairs + st.wall_contacts > 0 {
+                if !touched && setup.is_sphere() {
+                    u0 = approach(bs, &centres(bs));
+                }
+                touched = true;
+                in_contact = true;
+                closest = closest.min(closest_approach(bs, &markers, &walls));
+            }
+        });
+        steps += 1;
+        separated = touched && !in_contact;
+        stuck = in_contact && relative_ke(&bodies) < 1e-10 * ke_rel0;
+    }
+    let n_end = if setup.is_sphere() { centres(&bodies) } else { normal };
+    Outcome {
+        restitution: if separated { -approach(&bodies, &n_end) / u0 } else { 0.0 },
+        separated,
+        momentum_err: if bodies.len() == 2 { momentum_err } else { 0.0 },
+        ke_change: (energy(&bodies) - e0) / e0,
+        energy_rise,
+        energy_excess,
+        closest,
+        steps,
+    }
+}
+
+/// The smallest signed distance of any marker of one body to another body's surface (each in
+/// the other's body frame), or of any marker to a wall.
+fn closest_approach(bodies: &[RigidBody], markers: &[Vec<Marker>], walls: &Walls) -> f64 {
+    let mut best = f64::INFINITY;
+    for (a, ba) in bodies.iter().enumerate() {
+        for m in &markers[a] {
+            let x = ba.to_world(&m.position);
+            for (b, bb) in bodies.iter().enumerate() {
+                if b != a {
+                    best = best.min(bb.signed_distance(&x));
+                }
+            }
+            for (axis, side, plane, _) in walls.iter() {
+                best = best.min(if side == 0 { x[axis] - plane } else { plane - x[axis] });
+            }
+        }
+    }
+    best
+}
+
+/// Impact speeds of the study.
+pub fn speeds(tier: Tier) -> Vec<f64> {
+    match tier {
+        Tier::Quick => vec![0.01, 0.02, 0.05, TIP_SPEED],
+        Tier::Full => vec![0.005, 0.01, 0.02, 0.035, 0.05, 0.075, TIP_SPEED],
+    }
+}
+
+/// The runs where Table 1 does not keep the closest approach above `δ_sat` (module doc).
+fn known_deviation(setup: Setup, d: f64, speed: f64) -> bool {
+    d > 6.0 && (setup.is_sphere() || setup == Setup::WallEdge) && speed >= 0.05
+}
+
+/// The saturated-damping measurement of `saturated_amplification_matches_analysis`: returns
+/// `(c, m_red, g, g_pred)`.
+fn saturated(setup: Setup, d: f64, n_sub: usize) -> (f64, f64, f64, f64) {
+    let u0 = 1e-10;
+    let Scene { mut bodies, markers, walls, normal } = scene(setup, d, u0, 0.1);
+    if bodies.len() == 2 {
+        // Opposite velocities: zero centre-of-mass velocity, so that the relative velocity is
+        // not measured as a small difference of two large ones.
+        bodies[0].velocity = normal * (0.5 * u0);
+        bodies[1].velocity = -normal * (0.5 * u0);
+    }
+    let params = ContactParams { elastic: false, ..Default::default() };
+    let mut ct = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
+    let c = -ct.compute(&bodies, &markers)[0].force.dot(&normal) / u0;
+    let m_red = if bodies.len() == 2 {
+        bodies[0].mass() * bodies[1].mass() / (bodies[0].mass() + bodies[1].mass())
+    } else {
+        bodies[0].mass()
+    };
+    let rel = |bs: &[RigidBody]| {
+        (if bs.len() == 2 { bs[0].velocity - bs[1].velocity } else { bs[0].velocity }).dot(&normal)
+    };
+    let before = rel(&bodies);
+    ct.advance(&mut bodies, &markers, n_sub);
+    let g = rel(&bodies) / before;
+    let g_pred = (1.0 - c / (m_red * n_sub as f64)).powi(n_sub as i32);
+    (c, m_red, g, g_pred)
+}
+
+/// Runs the case.
+pub fn run(tier: Tier) -> CaseOutput {
+    let mut out = CaseOutput { has_ref: true, ..Default::default() };
+    let speeds = speeds(tier);
+    let lub = ContactParams::default();
+    let dry = ContactParams { lubrication: false, ..Default::default() };
+    let sizes = [6.0, 12.0];
+    let mut jobs: Vec<(f64, Setup, f64, bool)> = Vec::new();
+    for d in sizes {
+        for s in Setup::ALL {
+            for lubricated in [true, false] {
+                jobs.extend(speeds.iter().map(|&v| (d, s, v, lubricated)));
+            }
+        }
+    }
+    let res: Vec<Outcome> = jobs
+        .par_iter()
+        .map(|&(d, s, v, l)| collide(s, d, v, if l { lub } else { dry }, DEFAULT_SUBSTEPS))
+        .collect();
+
+    let (mut mom, mut ke_normal, mut excess, mut min_loss) =
+        (0.0f64, 0.0f64, f64::NEG_INFINITY, f64::INFINITY);
+    let mut closest_ok = f64::INFINITY;
+    let mut dev = Table::new(
+        "point and edge impacts at d = 12, speed >= 0.05: closest approach (known deviation where below delta_sat = 0.2)",
+        &[("d", true), ("setup", true), ("speed", true), ("closest", true)],
+    );
+    for d in sizes {
+        let mut t = Table::new(
+            format!(
+                "d={d} l=d gamma=1.25 n_sub={DEFAULT_SUBSTEPS}, lubricated: restitution and closest approach"
+            ),
+            &[
+                ("setup", true),
+                ("speed", true),
+                ("restitution", true),
+                ("separated", true),
+                ("closest", true),
+                ("ke_change", true),
+                ("energy_rise", false),
+                ("momentum_err", false),
+                ("steps", true),
+            ],
+        );
+        let mut te = Table::new(
+            format!("d={d} l=d gamma=1.25 n_sub={DEFAULT_SUBSTEPS}, elastic only: kinetic energy through a contact"),
+            &[("setup", true), ("speed", true), ("restitution", true), ("ke_change", true), ("closest", true)],
+        );
+        for (&(dd, s, v, l), o) in jobs.iter().zip(&res) {
+            if dd != d {
+                continue;
+            }
+            mom = mom.max(o.momentum_err);
+            if l {
+                t.push(vec![
+                    s.index(),
+                    v,
+                    o.restitution,
+                    o.separated as u8 as f64,
+                    o.closest,
+                    o.ke_change,
+                    o.energy_rise,
+                    o.momentum_err,
+                    o.steps as f64,
+                ]);
+                excess = excess.max(o.energy_excess);
+                min_loss = min_loss.min(-o.ke_change);
+                if known_deviation(s, d, v) {
+                    dev.push(vec![d, s.index(), v, o.closest]);
+                } else {
+                    closest_ok = closest_ok.min(o.closest);
+                }
+            } else {
+                te.push(vec![s.index(), v, o.restitution, o.ke_change, o.closest]);
+                if s != Setup::SphereOblique {
+                    ke_normal = ke_normal.max(o.ke_change.abs());
+                }
+            }
+        }
+        out.tables.push(t);
+        out.tables.push(te);
+    }
+    out.tables.push(dev);
+    out.checks.push(Check::at_most(
+        CASE,
+        "momentum_conservation",
+        mom,
+        1e-13,
+        "each marker pair applies +f and -f to its two bodies in the same sub-step: sum m v \
+         changes by round-off only (1e-16 per update); a one-sided force gives O(1e-2)",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "elastic_ke_change_normal_impacts",
+        ke_normal,
+        0.01,
+        "lubrication off: position-Verlet sub-steps are symplectic for the spring and a normal \
+         impact retraces its path, so KE returns to O(h^2); measured <= 0.34 %. Oblique impacts \
+         are a known deviation of the model (non-conservative elastic force), see the doc",
+    ));
+    out.checks.push(Check::at_least(
+        CASE,
+        "dissipation_lubricated",
+        min_loss,
+        0.0,
+        0.0,
+        "lubrication power -(k_n|du_n|^2 + k_t|du_t|^2)(1/d* - 1/d_d) w is never positive: \
+         KE(0) - KE(end) >= 0 for every lubricated run",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "energy_never_exceeds_initial",
+        excess.max(0.0),
+        1e-12,
+        "lubricated: the lubrication acts from delta_d = 1, before the spring (delta0 = 0.5) stores \
+         anything, and only removes energy; E = KE + sum k(d0-d)^2 w/2 after every sub-step stays \
+         at or below E(0) (1e-12: round-off of KE before the contact)",
+    ));
+    out.checks.push(Check::at_least(
+        CASE,
+        "closest_approach",
+        closest_ok,
+        0.2,
+        0.2,
+        "no marker comes closer than delta_sat to another surface or the wall (impact speeds \
+         up to the tip speed 0.104); the runs where Table 1 does not achieve it are listed in \
+         the table of known deviations",
+    ));
+
+    // Stability at saturation.
+    let mut ts = Table::new(
+        "saturated lubrication (elastic off, gap 0.1): per-step amplification of the relative normal velocity",
+        &[
+            ("d", true),
+            ("setup", true),
+            ("c", true),
+            ("m_red", true),
+            ("n_sub", true),
+            ("b", true),
+            ("g", true),
+            ("g_pred", true),
+        ],
+    );
+    let (mut worst_fit, mut b6, mut b12) = (0.0f64, 0.0f64, 0.0f64);
+    for d in sizes {
+        for s in [Setup::CylinderEnd, Setup::WallFlat] {
+            for n in [4, 8, 16] {
+                let (c, m, g, gp) = saturated(s, d, n);
+                let b = c / (m * n as f64);
+                ts.push(vec![d, s.index(), c, m, n as f64, b, g, gp]);
+                worst_fit = worst_fit.max((g / gp - 1.0).abs());
+                if n == DEFAULT_SUBSTEPS {
+                    if d < 12.0 {
+                        b6 = b6.max(b);
+                    } else {
+                        b12 = b12.max(b);
+                    }
+                }
+            }
+        }
+    }
+    out.tables.push(ts);
+    out.checks.push(Check::at_most(
+        CASE,
+        "saturated_amplification_matches_analysis",
+        worst_fit,
+        1e-9,
+        "saturated, lubrication only, normal motion: the damping is linear and constant, so one \
+         fluid step multiplies the relative velocity by (1 - c h/m_red)^n_sub exactly (round-off \
+         of <= 16 updates)",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "saturated_stability_d6",
+        b6,
+        2.0,
+        "explicit Euler damping is stable for b = c h/m_red < 2; stiffest contacts at d = 6",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "saturated_monotone_d12",
+        b12,
+        1.0,
+        "b <= 1: the relative velocity decays without reversing (paper scale d = 12)",
+    ));
+
+    out.tables.push(cost(tier));
+    out
+}
+
+/// `(µs per call, stats)` of `Contacts::compute` on `bodies`, minimum over `reps` calls after
+/// one warm-up call, in a pool of `threads` threads.
+fn time_compute(
+    bodies: &[RigidBody],
+    markers: &[Vec<Marker>],
+    walls: Walls,
+    threads: usize,
+    reps: usize,
+) -> (f64, slurry::contact::ContactStats) {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
+    pool.install(|| {
+        let mut c =
+            Contacts::new(ContactParams::default(), walls, bodies, markers).expect("valid parameters");
+        c.compute(bodies, markers);
+        let mut best = f64::INFINITY;
+        for _ in 0..reps {
+            let t0 = Instant::now();
+            c.compute(bodies, markers);
+            best = best.min(t0.elapsed().as_secs_f64());
+        }
+        (best * 1e6, *c.stats())
+    })
+}
+
+/// A settled bed and how it was made.
+struct Bed {
+    bodies: Vec<RigidBody>,
+    markers: Vec<Vec<Marker>>,
+    walls: Walls,
+    steps: usize,
+    seconds: f64,
+    /// Solids fraction below the top of the bed.
+    phi: f64,
+}
+
+/// 100 cylinders `d = 12`, `ℓ = d`, random orientations, on a jittered lattice in a closed
+/// 90 × 90 × 80 box, settled for 3000 steps under net weight (`g = 2e-3`) and a linear drag
+/// (terminal speed 0.05, a stand-in for the fluid) with `Contacts::advance`. (The pile of
+/// frictionless cylinders keeps spreading slowly on the frictionless floor, `|v| ≲ 0.03`; small
+/// piles of two or three come to rest to 1e-13.)
+fn settled_bed() -> Bed {
+    let box_n = [90, 90, 80];
+    let walls = Walls::closed_box(box_n);
+    let shape: Arc<dyn Shape> = Arc::new(Cylinder::new(12.0, 12.0));
+    let m = shape.markers(DEFAULT_MARKER_SPACING);
+    let mut rng = SplitMix64(7);
+    let mut bodies = Vec::with_capacity(100);
+    // Cells of 17.6 > 2 × bounding radius + 0.5: no overlap whatever the orientations.
+    'fill: for k in 0.. {
+        for j in 0..5 {
+            for i in 0..5 {
+                if bodies.len() == 100 {
+                    break 'fill;
+                }
+                let c = Vec3::new(
+                    9.5 + i as f64 * 17.6 + rng.uniform(-0.3, 0.3),
+                    9.5 + j as f64 * 17.6 + rng.uniform(-0.3, 0.3),
+                    9.0 + k as f64 * 17.6,
+                );
+                let axis = loop {
+                    let v = Vec3::from(rng.vec3(-1.0, 1.0));
+                    if v.norm() > 0.1 && v.norm() < 1.0 {
+                        break v.normalize();
+                    }
+                };
+                let q = Quat::rotation_between(&Vec3::z(), &axis).unwrap_or_else(Quat::identity);
+                bodies.push(
+                    RigidBody::new(shape.clone(), GAMMA, Motion::Free).with_position(c).with_orientation(q),
+                );
+            }
+        }
+    }
+    let markers = vec![m; bodies.len()];
+    let mut ct = Contacts::new(ContactParams::default(), walls, &bodies, &markers).expect("valid parameters");
+    let g = Vec3::new(0.0, 0.0, -2e-3);
+    let weight = bodies[0].net_weight(g, 1.0);
+    let drag = weight.norm() / 0.05;
+    let t0 = Instant::now();
+    let mut steps = 0;
+    loop {
+        for b in &mut bodies {
+            let (v, w) = (b.velocity, b.angular_velocity);
+            b.add_force(weight - v * drag);
+            b.add_torque(-w * (drag * 36.0));
+        }
+        ct.advance(&mut bodies, &markers, DEFAULT_SUBSTEPS);
+        steps += 1;
+        if steps >= 3000 {
+            break;
+        }
+    }
+    let top = bodies.iter().map(|b| b.position.z).fold(0.0, f64::max);
+    let solid: f64 = bodies.iter().map(|b| b.shape().volume()).sum();
+    let phi = solid / (90.0 * 90.0 * (top + 6.5));
+    Bed { bodies, markers, walls, steps, seconds: t0.elapsed().as_secs_f64(), phi }
+}
+
+/// Cost of `Contacts::compute` (module doc): per contact type (quick and full), and on a
+/// settled bed of 100 cylinders (full).
+fn cost(tier: Tier) -> Table {
+    let mut t = Table::new(
+        "cost of one Contacts::compute, min of repeated calls (config 0-3: cylinder_side, cylinder_end, \
+         wall_flat, wall_side at gap 0.5; 4: settled bed of 100 cylinders, full tier)",
+        &[
+            ("config", true),
+            ("threads", true),
+            ("bodies", true),
+            ("candidate_pairs", false),
+            ("touching_pairs", false),
+            ("marker_pairs", false),
+            ("wall_contacts", false),
+            ("us_per_call", false),
+            ("settle_steps", false),
+            ("settle_s", false),
+            ("phi", false),
+        ],
+    );
+    // Config 0..3: one contact of each kind (d = 12, l = d, surfaces 0.5 apart).
+    for (k, s) in
+        [Setup::CylinderSide, Setup::CylinderEnd, Setup::WallFlat, Setup::WallSide].into_iter().enumerate()
+    {
+        let sc = scene(s, 12.0, 0.0, 0.5);
+        let (us, st) = time_compute(&sc.bodies, &sc.markers, sc.walls, 1, 200);
+        t.push(vec![
+            k as f64,
+            1.0,
+            sc.bodies.len() as f64,
+            st.candidate_pairs as f64,
+            st.touching_pairs as f64,
+            st.marker_pairs as f64,
+            st.wall_contacts as f64,
+            us,
+            0.0,
+            0.0,
+            0.0,
+        ]);
+    }
+    if tier == Tier::Full {
+        let Bed { bodies, markers, walls, steps, seconds: secs, phi } = settled_bed();
+        for threads in [1, 2] {
+            let (us, st) = time_compute(&bodies, &markers, walls, threads, 7);
+            t.push(vec![
+                4.0,
+                threads as f64,
+                bodies.len() as f64,
+                st.candidate_pairs as f64,
+                st.touching_pairs as f64,
+                st.marker_pairs as f64,
+                st.wall_contacts as f64,
+                us,
+                steps as f64,
+                secs,
+                phi,
+            ]);
+        }
+    }
+    t
+}
