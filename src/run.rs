@@ -182,26 +182,48 @@ impl<T: Real + Planes> Solver<T> {
     /// The particles' state now, with the hydrodynamic loads of the last step.
     fn particle_frame(&self) -> Option<ParticleFrame> {
         let Solver::Coupled(c) = self else { return None };
-        let step = c.fluid().time();
-        let bodies = c.bodies();
-        let v3 = |v: &crate::rigid::Vec3| [v.x, v.y, v.z];
-        Some(ParticleFrame {
-            step,
-            time: step as f64,
-            position: bodies.iter().map(|b| v3(&b.position)).collect(),
-            quaternion: bodies
-                .iter()
-                .map(|b| {
-                    let q = b.orientation.quaternion();
-                    [q.w, q.i, q.j, q.k]
-                })
-                .collect(),
-            velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
-            angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
-            force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
-            torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
-        })
+        Some(particle_frame(c))
     }
+}
+
+/// The particles' state now, with the hydrodynamic loads of the last step (a frame of
+/// `particles.h5`; also the bed of `slurry settle`).
+pub(crate) fn particle_frame<T: Real + Planes>(c: &Coupled<T>) -> ParticleFrame {
+    let step = c.fluid().time();
+    let bodies = c.bodies();
+    let v3 = |v: &Vec3| [v.x, v.y, v.z];
+    ParticleFrame {
+        step,
+        time: step as f64,
+        position: bodies.iter().map(|b| v3(&b.position)).collect(),
+        quaternion: bodies
+            .iter()
+            .map(|b| {
+                let q = b.orientation.quaternion();
+                [q.w, q.i, q.j, q.k]
+            })
+            .collect(),
+        velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
+        angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
+        force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
+        torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
+    }
+}
+
+/// The static per-particle data of `particles.h5`.
+pub(crate) fn particle_statics(inits: &[crate::case::ParticleInit]) -> Vec<ParticleStatic> {
+    inits
+        .iter()
+        .map(|p| ParticleStatic {
+            shape: p.shape.name(),
+            diameter: p.diameter,
+            length: p.length.unwrap_or(f64::NAN),
+            density: p.density,
+            volume: p.volume(),
+            mass: p.density * p.volume(),
+            motion: p.motion.name(),
+        })
+        .collect()
 }
 
 /// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
@@ -295,18 +317,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let mut history = if inits.is_empty() {
         None
     } else {
-        let statics: Vec<ParticleStatic> = inits
-            .iter()
-            .map(|p| ParticleStatic {
-                shape: p.shape.name(),
-                diameter: p.diameter,
-                length: p.length.unwrap_or(f64::NAN),
-                density: p.density,
-                volume: p.volume(),
-                mass: p.density * p.volume(),
-                motion: p.motion.name(),
-            })
-            .collect();
+        let statics = particle_statics(&inits);
         Some(if opts.resume {
             ParticleHistoryWriter::resume(&ph_path, solver.fluid().time())
                 .with_context(|| format!("cannot resume {}", ph_path.display()))?

@@ -22,9 +22,10 @@ use anyhow::Context;
 
 use crate::case::{Case, Precision};
 use crate::coupling::Coupled;
-use crate::io::{atomic_write_bytes, ParticleFrame, ParticleHistoryWriter, ParticleStatic};
+use crate::io::{atomic_write_bytes, ParticleHistoryWriter};
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Real};
+use crate::run::{particle_frame, particle_statics};
 
 /// Options of [`settle_case`].
 #[derive(Clone, Copy, Debug)]
@@ -126,39 +127,12 @@ fn settle_typed<T: Real + Planes>(
         }
     }
     // The bed: one frame in the particles.h5 layout, and explicit [[particles]] entries.
-    let statics: Vec<ParticleStatic> = inits
-        .iter()
-        .map(|p| ParticleStatic {
-            shape: p.shape.name(),
-            diameter: p.diameter,
-            length: p.length.unwrap_or(f64::NAN),
-            density: p.density,
-            volume: p.volume(),
-            mass: p.density * p.volume(),
-            motion: p.motion.name(),
-        })
-        .collect();
+    let statics = particle_statics(&inits);
     let bed_h5 = out_dir.join("bed.h5");
     let mut w = ParticleHistoryWriter::create(&bed_h5, case.grid(), case.gravity(), &statics)
         .with_context(|| format!("cannot write {}", bed_h5.display()))?;
-    let v3 = |v: &crate::rigid::Vec3| [v.x, v.y, v.z];
+    let frame = particle_frame(&c);
     let bodies = c.bodies();
-    let frame = ParticleFrame {
-        step: steps,
-        time: steps as f64,
-        position: bodies.iter().map(|b| v3(&b.position)).collect(),
-        quaternion: bodies
-            .iter()
-            .map(|b| {
-                let q = b.orientation.quaternion();
-                [q.w, q.i, q.j, q.k]
-            })
-            .collect(),
-        velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
-        angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
-        force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
-        torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
-    };
     w.append(&frame).with_context(|| format!("cannot write {}", bed_h5.display()))?;
     let mut toml = format!(
         "# Settled bed from slurry settle: {} particles after {steps} steps, mean speed {speed:e} ({}).\n",
