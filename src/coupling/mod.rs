@@ -451,12 +451,6 @@ impl<T: Real + Planes> Coupled<T> {
         &self.bodies
     }
 
-    /// The bodies, mutably (e.g. to restore a state). Markers, shapes and the marker order
-    /// are fixed at construction.
-    pub fn bodies_mut(&mut self) -> &mut [RigidBody] {
-        &mut self.bodies
-    }
-
     /// Gravity.
     pub fn gravity(&self) -> Vec3 {
         self.gravity
@@ -511,11 +505,6 @@ impl<T: Real + Planes> Coupled<T> {
     /// state of the implicit shell reaction, module docs; zero for bodies that are not free).
     pub fn velocity_change(&self, b: usize) -> (Vec3, Vec3) {
         self.change[b]
-    }
-
-    /// Sets [`Coupled::velocity_change`] (restoring a checkpoint).
-    pub fn set_velocity_change(&mut self, b: usize, change: (Vec3, Vec3)) {
-        self.change[b] = change;
     }
 
     /// The state for a checkpoint (at an even time step; see [`Fluid::snapshot`]).
