@@ -6,7 +6,9 @@
 //! - [`shape`]: the [`Shape`] trait (volume, principal moments, inside test, signed distance,
 //!   surface markers with outward normals and area weights) and [`Marker`];
 //! - [`sphere`], [`cylinder`]: the shapes of the first target (Derksen 2020: cylinders of
-//!   diameter `d` and length `ℓ`, spheres for the drag calibration);
+//!   diameter `d` and length `ℓ`, spheres for the drag calibration); [`cuboid`] (blades);
+//! - [`impeller`]: the disk and the pitched-blade turbine on a shaft, a union of parts, and
+//!   their prescribed rotation with a start-up ramp;
 //! - [`body`]: [`RigidBody`] (state, [`Motion`] kind, load accumulators, frame transforms,
 //!   marker positions and velocities, net weight);
 //! - [`integrate`]: the second-order, norm-preserving update (loads extrapolated to the half
@@ -23,13 +25,17 @@
 //! of the crate do not need their own nalgebra dependency.
 
 pub mod body;
+pub mod cuboid;
 pub mod cylinder;
+pub mod impeller;
 pub mod integrate;
 pub mod shape;
 pub mod sphere;
 
 pub use body::{ConstantMotion, Motion, PrescribedMotion, RigidBody};
+pub use cuboid::Cuboid;
 pub use cylinder::Cylinder;
+pub use impeller::{Impeller, ImpellerGeometry, ImpellerKind, Pumping, RampedRotation};
 pub use integrate::LoadScheme;
 pub use shape::{Marker, MassProperties, Shape, DEFAULT_MARKER_SPACING};
 pub use sphere::Sphere;
