@@ -17,6 +17,11 @@
 //! the particles' states too ([`Coupled::snapshot`]), and a resume continues bitwise
 //! identically (`particles.h5` is cut back to the checkpoint's step like the time series).
 //!
+//! **Impeller.** With `[impeller]` ([`Case::impeller_setup`]) the impeller is one more body of
+//! the coupling, after the particles, with its prescribed rotation; the time series gains its
+//! angle, speed, torques and power numbers ([`ImpellerTorques`]). Without particles the run
+//! is single-phase with the impeller alone.
+//!
 //! Numerical trouble (non-finite populations, non-positive density, Mach number above
 //! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
 //! the time series up to the last healthy output is kept.
@@ -29,8 +34,9 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
-use crate::case::{Case, Precision};
+use crate::case::{Case, ImpellerSetup, Precision};
 use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
+use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
     ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter, BODY_STATE_LEN,
@@ -101,8 +107,10 @@ pub struct RunSummary {
     pub output_rows: u64,
     /// Number of particles (0 for a fluid-only case).
     pub particles: usize,
-    /// Number of surface markers over all particles.
+    /// Number of surface markers over all particles (and the impeller).
     pub markers: usize,
+    /// Number of the impeller's surface markers (0 without one).
+    pub impeller_markers: usize,
 }
 
 /// The run stopped for numerical trouble. Its Display is the diagnosis.
@@ -179,18 +187,44 @@ impl<T: Real + Planes> Solver<T> {
         }
     }
 
-    /// The particles' state now, with the hydrodynamic loads of the last step.
-    fn particle_frame(&self) -> Option<ParticleFrame> {
+    /// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of
+    /// the last step; `None` without particles.
+    fn particle_frame(&self, n: usize) -> Option<ParticleFrame> {
         let Solver::Coupled(c) = self else { return None };
-        Some(particle_frame(c))
+        (n > 0).then(|| particle_frame(c, n))
     }
 }
 
-/// The particles' state now, with the hydrodynamic loads of the last step (a frame of
-/// `particles.h5`; also the bed of `slurry settle`).
-pub(crate) fn particle_frame<T: Real + Planes>(c: &Coupled<T>) -> ParticleFrame {
+/// The impeller's torques and power numbers from the last step (body `index` of `c`).
+fn impeller_torques<T: Real + Planes>(
+    c: &Coupled<T>,
+    index: usize,
+    setup: &ImpellerSetup,
+) -> ImpellerTorques {
+    let loads = c.loads(index);
+    let t = c.bodies()[index].time;
+    let centre = setup.centre;
+    let (_, wall_torque) = c.fluid().wall_momentum_exchange([centre.x, centre.y, centre.z]);
+    let fluid = -loads.ibm_torque.z;
+    let solids = -loads.contact_torque.z;
+    let (po_fluid, po_solids) = (setup.power_number(fluid), setup.power_number(solids));
+    ImpellerTorques {
+        angle: setup.motion.angle(t),
+        omega: setup.motion.angular_speed(t),
+        fluid,
+        solids,
+        walls: wall_torque[2],
+        po_fluid,
+        po_solids,
+        po: po_fluid + po_solids,
+    }
+}
+
+/// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of the
+/// last step (a frame of `particles.h5`; also the bed of `slurry settle`).
+pub(crate) fn particle_frame<T: Real + Planes>(c: &Coupled<T>, n: usize) -> ParticleFrame {
     let step = c.fluid().time();
-    let bodies = c.bodies();
+    let bodies = &c.bodies()[..n];
     let v3 = |v: &Vec3| [v.x, v.y, v.z];
     ParticleFrame {
         step,
@@ -262,21 +296,29 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let grid = case.grid();
     let nodes = grid.nodes() as f64;
     let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    let n_particles = inits.len();
     let mut fluid =
         Fluid::<T>::new(grid, case.fluid_params(), case.boundaries()).context("cannot set up the fluid")?;
     fluid.initialize(|x, y, z| case.initial_state(x, y, z));
-    let mut solver = if inits.is_empty() {
+    let mut solver = if inits.is_empty() && impeller.is_none() {
         Solver::Fluid(Box::new(fluid))
     } else {
-        let bodies = inits.iter().map(|p| p.body()).collect();
+        let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
+        bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
         let coupled = Coupled::new(fluid, bodies, case.coupling_params())
-            .map_err(|e| anyhow::anyhow!("cannot couple the particles: {e}"))?;
+            .map_err(|e| anyhow::anyhow!("cannot couple the particles and the impeller: {e}"))?;
         Solver::Coupled(Box::new(coupled))
     };
-    let markers = match &solver {
-        Solver::Coupled(c) => c.marker_count(),
-        Solver::Fluid(_) => 0,
+    let (markers, impeller_markers) = match &solver {
+        Solver::Coupled(c) => {
+            let total = c.marker_count();
+            let imp = if impeller.is_some() { c.body_marker_count(n_particles) } else { 0 };
+            (total, imp)
+        }
+        Solver::Fluid(_) => (0, 0),
     };
+    let columns = Columns { particles: n_particles > 0, impeller: impeller.is_some() };
 
     let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
     let case_path = out_dir.join(files::CASE);
@@ -310,7 +352,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         TimeSeriesWriter::resume(&ts_path, solver.fluid().time())
             .with_context(|| format!("cannot resume {}", ts_path.display()))?
     } else {
-        TimeSeriesWriter::create_with(&ts_path, !inits.is_empty())
+        TimeSeriesWriter::create_columns(&ts_path, columns)
             .with_context(|| format!("cannot write {}", ts_path.display()))?
     };
     let ph_path = out_dir.join(files::PARTICLES_H5);
@@ -359,7 +401,11 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
             }
             // The row of the step a resume starts from is already in the time series.
             if output_due && resumed_at != Some(step) {
-                let frame = solver.particle_frame();
+                let frame = solver.particle_frame(n_particles);
+                let torques = match (&solver, &impeller) {
+                    (Solver::Coupled(c), Some(s)) => Some(impeller_torques(c, n_particles, s)),
+                    _ => None,
+                };
                 ts.append(&TimeSeriesRow {
                     step,
                     time: step as f64,
@@ -368,6 +414,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     max_mach: health.max_mach,
                     mlups: block_mlups,
                     particles: frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity)),
+                    impeller: torques,
                 })
                 .with_context(|| format!("cannot write {}", ts_path.display()))?;
                 if let (Some(h), Some(frame)) = (history.as_mut(), frame) {
@@ -447,6 +494,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         output_rows: rows,
         particles: inits.len(),
         markers,
+        impeller_markers,
     };
     let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
     let sp = out_dir.join(files::SUMMARY);

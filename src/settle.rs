@@ -67,6 +67,11 @@ pub struct SettleSummary {
 /// A case without free particles, gravity or `[contacts]`; a coupling error; numerical
 /// trouble (non-finite particle state); an output failure.
 pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
+    // The paper settles the bed with no impeller present (physics.md §2); an `[impeller]`
+    // section is ignored here.
+    let mut case = case.clone();
+    case.impeller = None;
+    let case = &case;
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     if !case.has_particles() {
         anyhow::bail!("settle: the case has no particles");
@@ -131,7 +136,7 @@ fn settle_typed<T: Real + Planes>(
     let bed_h5 = out_dir.join("bed.h5");
     let mut w = ParticleHistoryWriter::create(&bed_h5, case.grid(), case.gravity(), &statics)
         .with_context(|| format!("cannot write {}", bed_h5.display()))?;
-    let frame = particle_frame(&c);
+    let frame = particle_frame(&c, inits.len());
     let bodies = c.bodies();
     w.append(&frame).with_context(|| format!("cannot write {}", bed_h5.display()))?;
     let mut toml = format!(

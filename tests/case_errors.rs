@@ -412,3 +412,69 @@ fn contact_section_errors_name_key_and_range() {
     assert_eq!(cp.contacts, Some(slurry::contact::ContactParams::default()));
     assert_eq!(cp.contact_substeps, slurry::contact::DEFAULT_SUBSTEPS);
 }
+
+// ---- impeller ----------------------------------------------------------------------------
+
+/// A closed 40 x 40 x 48 box with a PBT of D = 20 at its centre.
+const IMPELLER: &str = r#"
+[domain]
+nx = 40
+ny = 40
+nz = 48
+
+[fluid]
+nu = 0.02
+
+[boundaries]
+x_min = "no_slip"
+x_max = "no_slip"
+y_min = "no_slip"
+y_max = "no_slip"
+z_min = "no_slip"
+z_max = "no_slip"
+
+[run]
+steps = 10
+output_every = 5
+
+[impeller]
+kind = "pbt"
+diameter = 20.0
+speed = 1.0e-3
+ramp_steps = 100
+"#;
+
+/// `[impeller]`: defaults, keys of the other kind, ranges, fit in the box, and particles that
+/// overlap it are refused, naming the key.
+#[test]
+fn impeller_section_errors_name_key_and_range() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ok.toml");
+    std::fs::write(&path, IMPELLER).unwrap();
+    let case = Case::from_file(&path).unwrap();
+    let setup = case.impeller_setup().unwrap().unwrap();
+    assert_eq!(setup.centre, slurry::rigid::Vec3::new(19.5, 19.5, 23.5));
+    assert!((setup.tip_speed() - std::f64::consts::PI * 20.0e-3).abs() < 1e-15);
+
+    let with = |line: &str| format!("{IMPELLER}{line}\n");
+    rejects(&with("blade_count = 3"), &["impeller.blade_count", "blades"]);
+    rejects(&with("thickness = 1.0"), &["impeller.thickness", "only for kind = \"disk\""]);
+    rejects(&with("pitch_deg = 95.0"), &["impeller.pitch_deg", "95", "0 < pitch < 90"]);
+    rejects(&IMPELLER.replace("speed = 1.0e-3", "speed = 1.0e-2"), &["impeller.speed", "tip Mach", "0.3"]);
+    rejects(&IMPELLER.replace("diameter = 20.0", "diameter = 44.0"), &["impeller.centre", "inside the box"]);
+    rejects(&with("centre = [19.5, 19.5, 47.0]"), &["impeller.centre", "inside the box"]);
+    rejects(
+        &IMPELLER
+            .replace("z_max = \"no_slip\"", "z_max = \"periodic\"")
+            .replace("z_min = \"no_slip\"", "z_min = \"periodic\""),
+        &["impeller.shaft", "z_max"],
+    );
+    // A particle through the shaft.
+    let particle = "\n[[particles]]\nshape = \"sphere\"\ndiameter = 4.0\ndensity = 1.25\nposition = [19.5, 21.0, 40.0]\nmotion = \"free\"\n";
+    rejects(&format!("{IMPELLER}{particle}"), &["particles[0].position", "overlaps the impeller"]);
+    // Clear of it: accepted.
+    let clear = particle.replace("[19.5, 21.0, 40.0]", "[5.0, 5.0, 40.0]");
+    let path = dir.path().join("clear.toml");
+    std::fs::write(&path, format!("{IMPELLER}{clear}")).unwrap();
+    Case::from_file(&path).unwrap();
+}

@@ -39,6 +39,7 @@
 //! ([`Case::validate`], which also runs the solver's own [`FluidParams::validate`] and
 //! [`Boundaries::validate`]). Nothing is clamped or silently corrected.
 
+pub mod impeller;
 mod keys;
 pub mod particles;
 pub mod placement;
@@ -50,6 +51,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::lattice::{Face, Grid, CS2};
 use crate::lbm::{Boundaries, Collision, FaceBoundary, FluidError, FluidParams};
+pub use impeller::{ImpellerKindSpec, ImpellerSection, ImpellerSetup, PumpingSpec};
 pub use particles::{
     ContactsSection, IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind,
 };
@@ -86,6 +88,9 @@ pub struct Case {
     /// Populations of particles placed at random (`[[random_particles]]`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub random_particles: Vec<RandomParticles>,
+    /// A revolving impeller (`[impeller]`; absent = none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub impeller: Option<ImpellerSection>,
 }
 
 /// `[domain]`: grid size in nodes.
@@ -419,6 +424,7 @@ fn check_unknown_keys(doc: &toml::Table) -> Result<(), CaseErrorKind> {
             "contacts" => keys::struct_fields::<ContactsSection>(),
             "particles" => keys::struct_fields::<ParticleSpec>(),
             "random_particles" => keys::struct_fields::<RandomParticles>(),
+            "impeller" => keys::struct_fields::<ImpellerSection>(),
             _ => return Err(unknown(name.clone(), top)),
         };
         match value {
@@ -543,6 +549,7 @@ impl Case {
         self.validate_boundaries()?;
         self.validate_initial()?;
         self.validate_particle_settings()?;
+        self.impeller_setup()?;
         Ok(())
     }
 

@@ -856,7 +856,46 @@ impl Case {
                 motion: r.motion,
             }));
         }
+        self.check_clear_of_impeller(&out)?;
         Ok(out)
+    }
+
+    /// Checks that no particle overlaps the impeller at its start position: every marker of
+    /// the particle (spacing `[ibm].marker_spacing`) outside the impeller. The paper settles
+    /// the bed first and inserts the impeller above it (physics.md §2).
+    fn check_clear_of_impeller(&self, inits: &[ParticleInit]) -> Result<(), CaseErrorKind> {
+        let Some(imp) = self.impeller_setup()? else { return Ok(()) };
+        let body = imp.body();
+        let spacing = self.ibm().marker_spacing;
+        let mut owner = Vec::with_capacity(inits.len());
+        owner.extend((0..self.particles.len()).map(|i| format!("particles[{i}].position")));
+        for k in 0..self.random_particles.len() {
+            owner.extend(std::iter::repeat_n(format!("random_particles[{k}].region"), self.random_count(k)));
+        }
+        for (i, p) in inits.iter().enumerate() {
+            let pb = p.body();
+            let r = pb.shape().bounding_radius();
+            if body.signed_distance(&p.position) > r {
+                continue;
+            }
+            let clash = pb
+                .shape()
+                .markers(spacing)
+                .iter()
+                .any(|m| body.signed_distance(&pb.marker_world(m).0) <= 0.0);
+            if clash {
+                let key = owner.get(i).cloned().unwrap_or_else(|| "particles".into());
+                return Err(invalid(
+                    key,
+                    fmt_vec(&[p.position.x, p.position.y, p.position.z]),
+                    format!(
+                        "particle {i} overlaps the impeller; particles must start clear of it (settle the bed \
+                         without the impeller, then add it: physics.md §2)"
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// The rigid bodies of [`Case::particle_inits`], in the same order.

@@ -466,6 +466,11 @@ impl<T: Real + Planes> Coupled<T> {
         *self.offsets.last().unwrap()
     }
 
+    /// Number of markers on body `b`.
+    pub fn body_marker_count(&self, b: usize) -> usize {
+        self.offsets[b + 1] - self.offsets[b]
+    }
+
     /// Forcing iterations per step.
     pub fn iterations(&self) -> usize {
         self.iterations

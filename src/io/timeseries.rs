@@ -3,7 +3,9 @@
 //! Columns: `step, time, mass, momentum_x, momentum_y, momentum_z, max_mach, mlups`
 //! (lattice units; `time = step` since Δt = 1; `mlups` is the throughput of the block of
 //! steps that ended at this row, 0 on the first row). Runs with particles add
-//! `particle_mean_z, particle_max_speed` before `mlups` (which stays the last column: the
+//! `particle_mean_z, particle_max_speed`, and runs with an impeller
+//! `impeller_angle, impeller_omega, torque_fluid, torque_solids, torque_walls, po_fluid,
+//! po_solids, po` ([`ImpellerTorques`]), before `mlups` (which stays the last column: the
 //! only one that is not physics). Numbers are written in Rust's shortest
 //! round-trip form, so `f64` values read back exactly.
 
@@ -20,13 +22,46 @@ pub const HEADER: &str = "step,time,mass,momentum_x,momentum_y,momentum_z,max_ma
 pub const PARTICLE_HEADER: &str =
     "step,time,mass,momentum_x,momentum_y,momentum_z,max_mach,particle_mean_z,particle_max_speed,mlups";
 
-/// The header for a run with or without particles.
-pub fn header(particles: bool) -> &'static str {
-    if particles {
-        PARTICLE_HEADER
-    } else {
-        HEADER
+/// The impeller columns (inserted before `mlups`).
+pub const IMPELLER_COLUMNS: &str =
+    "impeller_angle,impeller_omega,torque_fluid,torque_solids,torque_walls,po_fluid,po_solids,po";
+
+/// Which optional column groups a time series has.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Columns {
+    /// The particle aggregates.
+    pub particles: bool,
+    /// The impeller torques.
+    pub impeller: bool,
+}
+
+impl Columns {
+    /// Every combination, for recognising a header.
+    const ALL: [Columns; 4] = [
+        Columns { particles: false, impeller: false },
+        Columns { particles: true, impeller: false },
+        Columns { particles: false, impeller: true },
+        Columns { particles: true, impeller: true },
+    ];
+}
+
+/// The header for a run with or without particles (and no impeller).
+pub fn header(particles: bool) -> String {
+    header_for(Columns { particles, impeller: false })
+}
+
+/// The header line (without the newline) with the given column groups.
+pub fn header_for(c: Columns) -> String {
+    let mut h = String::from(HEADER.trim_end_matches(",mlups"));
+    if c.particles {
+        h.push_str(",particle_mean_z,particle_max_speed");
     }
+    if c.impeller {
+        h.push(',');
+        h.push_str(IMPELLER_COLUMNS);
+    }
+    h.push_str(",mlups");
+    h
 }
 
 /// Shortest round-trip form: plain decimal for moderate magnitudes, scientific otherwise
@@ -57,6 +92,35 @@ pub struct TimeSeriesRow {
     pub mlups: f64,
     /// Particle aggregates (runs with particles only).
     pub particles: Option<ParticleAggregates>,
+    /// Impeller torques (runs with an impeller only).
+    pub impeller: Option<ImpellerTorques>,
+}
+
+/// The impeller's angle, speed and torques about its axis at an output step (the last time
+/// step's values; lattice units, fluid density 1). Signs: torques *exerted by* the
+/// impeller (positive while it drives the flow for `Ω > 0`), and the torque the fluid exerts
+/// on the box walls; at a statistically steady state without particles
+/// `torque_fluid ≈ torque_walls`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImpellerTorques {
+    /// Angle turned since `t = 0`, radians.
+    pub angle: f64,
+    /// Angular speed `Ω`, radians per step.
+    pub omega: f64,
+    /// `Γ_f`: torque on the fluid through the immersed-boundary forces on the impeller's
+    /// markers, `Σ_m ((X_m − x_c) × F_m)_z`.
+    pub fluid: f64,
+    /// `Γ_c`: torque on the particles through the particle–impeller contacts (the paper's
+    /// solids torque).
+    pub solids: f64,
+    /// Torque of the fluid on the box walls about the impeller axis (momentum exchange).
+    pub walls: f64,
+    /// `Po_f = 2πNΓ_f/(ρN³D⁵)` with the nominal `N` (after the ramp).
+    pub po_fluid: f64,
+    /// `Po_c = 2πNΓ_c/(ρN³D⁵)`.
+    pub po_solids: f64,
+    /// `Po = Po_f + Po_c`.
+    pub po: f64,
 }
 
 /// Per-output-step particle aggregates in the time series.
@@ -85,10 +149,16 @@ impl ParticleAggregates {
 impl TimeSeriesRow {
     /// The CSV line (with the trailing newline).
     pub fn to_csv_line(&self) -> String {
-        let particles = match self.particles {
+        let mut particles = match self.particles {
             Some(p) => format!("{},{},", num(p.mean_z), num(p.max_speed)),
             None => String::new(),
         };
+        if let Some(t) = self.impeller {
+            for v in [t.angle, t.omega, t.fluid, t.solids, t.walls, t.po_fluid, t.po_solids, t.po] {
+                particles.push_str(&num(v));
+                particles.push(',');
+            }
+        }
         format!(
             "{},{},{},{},{},{},{},{particles}{}\n",
             self.step,
@@ -108,7 +178,7 @@ impl TimeSeriesRow {
 pub struct TimeSeriesWriter {
     path: PathBuf,
     file: File,
-    particles: bool,
+    columns: Columns,
 }
 
 impl TimeSeriesWriter {
@@ -120,9 +190,19 @@ impl TimeSeriesWriter {
 
     /// [`TimeSeriesWriter::create`] with the particle columns when `particles` is set.
     pub fn create_with(path: &Path, particles: bool) -> io::Result<Self> {
-        atomic_write_bytes(path, format!("{}\n", header(particles)).as_bytes())?;
+        Self::create_columns(path, Columns { particles, impeller: false })
+    }
+
+    /// [`TimeSeriesWriter::create`] with the given optional column groups.
+    pub fn create_columns(path: &Path, columns: Columns) -> io::Result<Self> {
+        atomic_write_bytes(path, format!("{}\n", header_for(columns)).as_bytes())?;
         let file = OpenOptions::new().append(true).open(path)?;
-        Ok(Self { path: path.to_path_buf(), file, particles })
+        Ok(Self { path: path.to_path_buf(), file, columns })
+    }
+
+    /// The optional column groups of this file.
+    pub fn columns(&self) -> Columns {
+        self.columns
     }
 
     /// Re-opens an existing time series for a resumed run: keeps the header and the complete
@@ -131,17 +211,14 @@ impl TimeSeriesWriter {
     pub fn resume(path: &Path, through_step: u64) -> io::Result<Self> {
         let old = std::fs::read_to_string(path)?;
         let mut lines = old.split_inclusive('\n');
-        let particles = match lines.next().map(str::trim_end) {
-            Some(HEADER) => false,
-            Some(PARTICLE_HEADER) => true,
-            _ => {
-                return Err(io::Error::new(
-                    io::ErrorKind::InvalidData,
-                    format!("{}: not a slurry time series (unexpected header)", path.display()),
-                ))
-            }
+        let first = lines.next().map(str::trim_end);
+        let Some(columns) = Columns::ALL.into_iter().find(|c| first == Some(header_for(*c).as_str())) else {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidData,
+                format!("{}: not a slurry time series (unexpected header)", path.display()),
+            ));
         };
-        let mut kept = format!("{}\n", header(particles));
+        let mut kept = format!("{}\n", header_for(columns));
         for line in lines.filter(|l| l.ends_with('\n')) {
             match line.split(',').next().and_then(|s| s.parse::<u64>().ok()) {
                 Some(step) if step <= through_step => kept.push_str(line),
@@ -150,16 +227,22 @@ impl TimeSeriesWriter {
         }
         atomic_write_bytes(path, kept.as_bytes())?;
         let file = OpenOptions::new().append(true).open(path)?;
-        Ok(Self { path: path.to_path_buf(), file, particles })
+        Ok(Self { path: path.to_path_buf(), file, columns })
     }
 
     /// Appends one row as a single write and flushes it. The row must carry particle
-    /// aggregates exactly when the file has the particle columns.
+    /// aggregates (impeller torques) exactly when the file has the particle (impeller)
+    /// columns.
     pub fn append(&mut self, row: &TimeSeriesRow) -> io::Result<()> {
-        if row.particles.is_some() != self.particles {
+        if row.particles.is_some() != self.columns.particles
+            || row.impeller.is_some() != self.columns.impeller
+        {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
-                format!("{}: row and header disagree on the particle columns", self.path.display()),
+                format!(
+                    "{}: row and header disagree on the particle or impeller columns",
+                    self.path.display()
+                ),
             ));
         }
         self.file.write_all(row.to_csv_line().as_bytes())?;
@@ -195,6 +278,7 @@ mod tests {
                 max_mach: 0.01,
                 mlups: 1.5,
                 particles: None,
+                impeller: None,
             })
             .unwrap();
         }
@@ -226,6 +310,7 @@ mod tests {
             max_mach: 0.0,
             mlups: 2.0,
             particles: Some(ParticleAggregates::of(&[[0.0, 0.0, 2.0], [0.0, 0.0, 4.0]], &[[3.0, 4.0, 0.0]])),
+            impeller: None,
         };
         w.append(&row).unwrap();
         row.particles = None;
@@ -234,6 +319,47 @@ mod tests {
         let lines: Vec<&str> = text.lines().collect();
         assert_eq!(lines, [PARTICLE_HEADER, "5,5,1,0,0,0,0,3,5,2"]);
         let w = TimeSeriesWriter::resume(&p, 5).unwrap();
-        assert!(w.particles);
+        assert!(w.columns().particles);
+    }
+
+    #[test]
+    fn impeller_columns_after_particles_and_resume() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("ts.csv");
+        let cols = Columns { particles: true, impeller: true };
+        let mut w = TimeSeriesWriter::create_columns(&p, cols).unwrap();
+        let t = ImpellerTorques {
+            angle: 1.0,
+            omega: 0.5,
+            fluid: 2.0,
+            solids: 0.25,
+            walls: 1.5,
+            po_fluid: 3.0,
+            po_solids: 0.5,
+            po: 3.5,
+        };
+        let mut row = TimeSeriesRow {
+            step: 4,
+            time: 4.0,
+            mass: 1.0,
+            momentum: [0.0; 3],
+            max_mach: 0.0,
+            mlups: 2.0,
+            particles: Some(ParticleAggregates { mean_z: 3.0, max_speed: 5.0 }),
+            impeller: Some(t),
+        };
+        w.append(&row).unwrap();
+        row.step = 8;
+        w.append(&row).unwrap();
+        row.impeller = None;
+        assert!(w.append(&row).is_err(), "a row without the impeller columns is refused");
+        let text = std::fs::read_to_string(&p).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines[0], header_for(cols));
+        assert!(lines[0].ends_with("particle_max_speed,impeller_angle,impeller_omega,torque_fluid,torque_solids,torque_walls,po_fluid,po_solids,po,mlups"));
+        assert_eq!(lines[1], "4,4,1,0,0,0,0,3,5,1,0.5,2,0.25,1.5,3,0.5,3.5,2");
+        let w = TimeSeriesWriter::resume(&p, 4).unwrap();
+        assert_eq!(w.columns(), cols);
+        assert_eq!(std::fs::read_to_string(&p).unwrap().lines().count(), 2);
     }
 }

@@ -413,6 +413,30 @@ impl Impeller {
         }
     }
 
+    /// The radius of the smallest cylinder about the axis that holds the impeller: `D/2` for
+    /// the disk; for the PBT the blade tips' outer corners, `√((D/2)² + y²)` with `y` the
+    /// blade's half extent across, `(w cos θ + t sin θ)/2`.
+    pub fn radial_reach(&self) -> f64 {
+        let r = 0.5 * self.geometry.diameter;
+        match self.geometry.kind {
+            ImpellerKind::Disk { .. } => r,
+            ImpellerKind::PitchedBlade { pitch, blade_width, blade_thickness, .. } => {
+                r.hypot(0.5 * (blade_width * pitch.cos() + blade_thickness * pitch.sin()))
+            }
+        }
+    }
+
+    /// The extent `(z_lo, z_hi)` along the axis, shaft included.
+    pub fn axial_extent(&self) -> (f64, f64) {
+        let half = match self.geometry.kind {
+            ImpellerKind::Disk { thickness } => 0.5 * thickness,
+            ImpellerKind::PitchedBlade { hub_height, pitch, blade_width, blade_thickness, .. } => {
+                0.5 * hub_height.max(blade_vertical_extent(pitch, blade_width, blade_thickness))
+            }
+        };
+        (-half, half.max(self.geometry.shaft_length))
+    }
+
     /// The number of parts (disk or hub and blades, and the shaft).
     pub fn part_count(&self) -> usize {
         self.parts.len()
