@@ -16,7 +16,8 @@
 //!   spreading as an adjoint pair (knows nothing of the fluid solver);
 //! - [`case`]: case files (TOML) and their validation;
 //! - [`io`]: HDF5/XDMF fields, CSV time series, atomic writes;
-//! - [`run`]: driving a case from start to output.
+//! - [`run`]: driving a case from start to output;
+//! - [`plot`]: PNG figures (field images with a colour bar, x–y line plots) with a bundled font.
 #![warn(missing_docs)]
 
 pub mod bench;
@@ -27,6 +28,7 @@ pub mod ibm;
 pub mod io;
 pub mod lattice;
 pub mod lbm;
+pub mod plot;
 pub mod rigid;
 pub mod run;
 pub mod settle;
