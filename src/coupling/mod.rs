@@ -80,7 +80,7 @@
 //! Every grid-sized operation of a step is restricted to the **band** of each body, the nodes
 //! within `√3 · h` of its surface (`h` the kernel's support half-width, so every stencil node
 //! of every marker is in it), built per step from the shape's chords along x-rows
-//! ([`band`]): the fluid velocity is evaluated only there (once per node and iteration, not
+//! (module `band`): the fluid velocity is evaluated only there (once per node and iteration, not
 //! once per stencil entry), the marker forces are spread straight into the fluid's force
 //! field (no intermediate buffer, no copy), and the force field is cleared only where the
 //! previous step wrote it. The velocity buffer is grid-sized but written and read only at band
@@ -97,7 +97,7 @@ use crate::ibm::{interpolate, spread_into, DeltaKernel, ForceSink, StencilError,
 use crate::lattice::{Face, NodeLayout, Run};
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, FluidError, FluidState, ForceFieldWriter, Real};
-use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
+use crate::rigid::{LoadScheme, Marker, Motion, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
 
 mod band;
 
@@ -596,8 +596,8 @@ impl<T: Real + Planes> Coupled<T> {
     ///    bodies at `tⁿ` (global marker order: body by body, marker by marker).
     /// 2. **Stencils** ([`Stencils::build`], with the box's periodicity) and the **band** of
     ///    each body (module docs), grouped by z-plane.
-    /// 3. **Interior sums before**: `P`, `L`, `V` of each body from the fluid at `tⁿ` (module
-    ///    docs).
+    /// 3. **Interior sums before**: `P`, `L`, `V` of each free or fixed body from the fluid at
+    ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term.
     /// 4. **Clear** the force field where the previous step spread (its band), and the marker
     ///    force totals.
     /// 5. **`K` direct-forcing iterations**, each: the fluid velocity `u = (j + F/2)/ρ` at the
@@ -658,7 +658,9 @@ impl<T: Real + Planes> Coupled<T> {
         {
             let fluid = &self.fluid;
             self.interior.par_iter_mut().zip(self.bodies.par_iter()).for_each(|(im, body)| {
-                im.before = interior_sums(fluid, body, periodic);
+                if has_interior_term(body) {
+                    im.before = interior_sums(fluid, body, periodic);
+                }
             });
         }
         lap(&mut tm.interior);
@@ -704,7 +706,9 @@ impl<T: Real + Planes> Coupled<T> {
         {
             let fluid = &self.fluid;
             self.interior.par_iter_mut().zip(self.bodies.par_iter()).for_each(|(im, body)| {
-                im.after = interior_sums(fluid, body, periodic);
+                if has_interior_term(body) {
+                    im.after = interior_sums(fluid, body, periodic);
+                }
             });
         }
         lap(&mut tm.interior);
@@ -869,6 +873,13 @@ fn shell_implicit(
 /// `(P, L, V)` of `body`'s interior fluid (module docs): `Σ α j`, `Σ α r × j`, `Σ α` over the
 /// nodes with `sd < ½`; nodes deeper than `sd < −½` have `α = 1` without evaluating `sd`.
 /// Serial per body (a fixed order: deterministic).
+/// Whether a body's loads include the interior-fluid term: free and fixed bodies do; a
+/// prescribed body (an impeller) does not, since its loads are only reported, and the paper's
+/// fluid torque on an impeller is the immersed-boundary torque alone. Its sums stay zero.
+fn has_interior_term(body: &RigidBody) -> bool {
+    !matches!(body.motion(), Motion::Prescribed(_))
+}
+
 fn interior_sums<T: Real + Planes>(
     fluid: &Fluid<T>,
     body: &RigidBody,

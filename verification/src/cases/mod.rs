@@ -5,12 +5,14 @@ pub mod couette;
 pub mod free_particles;
 pub mod fused_vs_reference;
 pub mod ibm_transfer;
+pub mod impeller;
 pub mod mass_conservation;
 pub mod poiseuille;
 pub mod quaternion_norm;
 pub mod stokes_drag;
 pub mod taylor_green;
 pub mod torque_free;
+pub mod wet_lubrication;
 
 use slurry::lattice::{Face, Grid};
 use slurry::lbm::kernel::Planes;
@@ -77,6 +79,16 @@ pub fn all() -> Vec<Case> {
             name: "contacts_dry",
             summary: "dry collisions (Table 1 contacts): momentum, energy, restitution, closest approach",
             run: contacts_dry::run,
+        },
+        Case {
+            name: "wet_lubrication",
+            summary: "sphere settling onto a fixed sphere in fluid: slows before contact (lubrication), no overlap",
+            run: wet_lubrication::run,
+        },
+        Case {
+            name: "impeller",
+            summary: "impellers: marker areas and normals; single-phase torque budget, Po_f and pumping at Re = 87",
+            run: impeller::run,
         },
     ]
 }

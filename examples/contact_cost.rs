@@ -1,0 +1,97 @@
+//! Contact cost per fluid step for the paper's densest case: 1644 cylinders `ℓ/d = 1`,
+//! `d = 12`, in a settled bed at full scale (251 × 251 × 240).
+//!
+//! ```text
+//! cargo run --release --example contact_cost -- [N] [LD] [SCALE]
+//! ```
+//!
+//! The bed is made without fluid, which would take hours here: the paper's random loose
+//! placement (φ = 0.148 of the box, seeded), then dry settling under a strong gravity with a
+//! linear drag (terminal speed 0.05) and Table 1's contacts until the largest speed is below
+//! 1e-3 (or 6000 steps). Then one fluid step's worth of contacts, `Contacts::advance` with the
+//! default sub-steps, is timed (best of 5), with the number of touching pairs and marker pairs.
+//! Compare with the fluid step (`cargo xtask bench`: 88 ms at full scale, 2 threads).
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use slurry::case::Case;
+use slurry::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
+use slurry::rigid::{Marker, Vec3};
+
+fn main() {
+    let args: Vec<f64> = std::env::args().skip(1).map(|a| a.parse().expect("numeric arguments")).collect();
+    let n = args.first().copied().unwrap_or(1644.0) as usize;
+    let ld = args.get(1).copied().unwrap_or(1.0);
+    let scale = args.get(2).copied().unwrap_or(1.0);
+    let dims = [(251.0 * scale).round(), (251.0 * scale).round(), (240.0 * scale).round()];
+    let d = 12.0 * scale;
+    let text = format!(
+        "[domain]\nnx = {}\nny = {}\nnz = {}\n[fluid]\nnu = 0.05\n[boundaries]\nx_min = \"no_slip\"\nx_max = \"no_slip\"\n\
+         y_min = \"no_slip\"\ny_max = \"no_slip\"\nz_min = \"no_slip\"\nz_max = \"no_slip\"\n[run]\nsteps = 1\noutput_every = 1\n\
+         [[random_particles]]\nshape = \"cylinder\"\ndiameter = {d}\nlength = {}\ndensity = 1.25\ncount = {n}\nseed = 2020\n",
+        dims[0],
+        dims[1],
+        dims[2],
+        ld * d
+    );
+    let case = Case::parse(&text, "contact_cost.toml").expect("valid case");
+    let mut bodies = case.bodies().expect("placement");
+    let markers: Vec<Arc<Vec<Marker>>> = {
+        let m = Arc::new(bodies[0].shape().markers(slurry::rigid::DEFAULT_MARKER_SPACING));
+        vec![m; bodies.len()]
+    };
+    let markers: Vec<&[Marker]> = markers.iter().map(|m| m.as_slice()).collect();
+    let walls = Walls::closed_box([dims[0] as usize, dims[1] as usize, dims[2] as usize]);
+    let mut ct = Contacts::new(ContactParams::default(), walls, &bodies, &markers).expect("valid parameters");
+    let g = Vec3::new(0.0, 0.0, -2e-3);
+    let weight = bodies[0].net_weight(g, 1.0);
+    let drag = weight.norm() / 0.05;
+    let t0 = Instant::now();
+    let mut steps = 0;
+    loop {
+        for b in &mut bodies {
+            let (v, w) = (b.velocity, b.angular_velocity);
+            b.add_force(weight - v * drag);
+            b.add_torque(-w * (drag * d * d / 4.0));
+        }
+        ct.advance(&mut bodies, &markers, 2);
+        steps += 1;
+        let vmax = bodies.iter().map(|b| b.velocity.norm()).fold(0.0, f64::max);
+        if steps % 500 == 0 {
+            eprintln!("  settling: step {steps}, max speed {vmax:.2e}, {:.0} s", t0.elapsed().as_secs_f64());
+        }
+        if (steps > 200 && vmax < 1e-3) || steps >= 6000 {
+            break;
+        }
+    }
+    let top = bodies.iter().map(|b| b.position.z).fold(0.0, f64::max);
+    println!(
+        "{n} cylinders l/d = {ld}, d = {d}: dry bed after {steps} steps ({:.0} s), top centre at z = {top:.1}",
+        t0.elapsed().as_secs_f64()
+    );
+    // One fluid step's contacts: at rest, so only the bed's standing contacts are timed.
+    for b in &mut bodies {
+        b.velocity = Vec3::zeros();
+        b.angular_velocity = Vec3::zeros();
+    }
+    let mut best = f64::INFINITY;
+    for _ in 0..5 {
+        let saved = bodies.clone();
+        let t = Instant::now();
+        ct.advance(&mut bodies, &markers, DEFAULT_SUBSTEPS);
+        best = best.min(t.elapsed().as_secs_f64());
+        bodies = saved;
+    }
+    let st = *ct.stats();
+    println!(
+        "contacts per fluid step ({DEFAULT_SUBSTEPS} sub-steps, {} threads): {:.1} ms; candidate pairs {}, touching pairs {}, \
+         marker pairs {}, wall contacts {}",
+        rayon::current_num_threads(),
+        best * 1e3,
+        st.candidate_pairs,
+        st.touching_pairs,
+        st.marker_pairs,
+        st.wall_contacts
+    );
+}
