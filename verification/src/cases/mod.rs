@@ -82,12 +82,14 @@ pub fn all() -> Vec<Case> {
         },
         Case {
             name: "wet_lubrication",
-            summary: "sphere settling onto a fixed sphere in fluid: slows before contact (lubrication), no overlap",
+            summary:
+                "sphere settling onto a fixed sphere in fluid: slows before contact (lubrication), no overlap",
             run: wet_lubrication::run,
         },
         Case {
             name: "impeller",
-            summary: "impellers: marker areas and normals; single-phase torque budget, Po_f and pumping at Re = 87",
+            summary:
+                "impellers: marker areas and normals; single-phase torque budget, Po_f and pumping at Re = 87",
             run: impeller::run,
         },
     ]
