@@ -128,7 +128,9 @@ impl Shape for Cuboid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rigid::shape::testing::{check_markers, monte_carlo, nearest_neighbour, SplitMix};
+    use crate::rigid::shape::testing::{
+        assert_within_5_sigma, check_markers, monte_carlo, nearest_neighbour, sd_gradient, SplitMix,
+    };
     use crate::rigid::{Quat, DEFAULT_MARKER_SPACING};
 
     #[test]
@@ -137,16 +139,7 @@ mod tests {
         let (est, err) = monte_carlo(&c, Vec3::new(0.6, 1.1, 0.3), 2_000_000, 5);
         let i = c.principal_moments_unit_density();
         let exact = [c.volume(), i.x, i.y, i.z];
-        // Five standard errors: seeded, so deterministic; a wrong factor is off by far more.
-        for k in 0..4 {
-            assert!(
-                (est[k] - exact[k]).abs() < 5.0 * err[k],
-                "k={k}: {} vs {} ± {}",
-                est[k],
-                exact[k],
-                err[k]
-            );
-        }
+        assert_within_5_sigma(&est, &err, &exact);
     }
 
     #[test]
@@ -162,12 +155,7 @@ mod tests {
             let p = Vec3::new(rng.uniform(-3.0, 3.0), rng.uniform(-4.0, 4.0), rng.uniform(-5.0, 5.0));
             assert_eq!(c.contains(&p), sd(p.x, p.y, p.z) < 0.0);
             if sd(p.x, p.y, p.z) > 1e-3 {
-                let e = 1e-6;
-                let g = Vec3::new(
-                    sd(p.x + e, p.y, p.z) - sd(p.x - e, p.y, p.z),
-                    sd(p.x, p.y + e, p.z) - sd(p.x, p.y - e, p.z),
-                    sd(p.x, p.y, p.z + e) - sd(p.x, p.y, p.z - e),
-                ) / (2.0 * e);
+                let g = sd_gradient(&c, &p);
                 assert!((g.norm() - 1.0).abs() < 1e-6, "|grad sd| = {} at {p:?}", g.norm());
             }
         }

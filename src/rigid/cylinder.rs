@@ -188,7 +188,9 @@ impl Shape for Cylinder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rigid::shape::testing::{check_markers, monte_carlo, nearest_neighbour};
+    use crate::rigid::shape::testing::{
+        assert_within_5_sigma, check_markers, monte_carlo, nearest_neighbour, sd_gradient,
+    };
     use crate::rigid::DEFAULT_MARKER_SPACING;
 
     #[test]
@@ -216,18 +218,9 @@ mod tests {
         let (est, err) = monte_carlo(&c, Vec3::new(0.5, 0.5, 1.0), 4_000_000, 11);
         let i = c.principal_moments_unit_density();
         let exact = [c.volume(), i.x, i.y, i.z];
-        // Five standard errors (estimated from the samples; ≈ 3e-4 relative for the volume
-        // with 4e6 samples): seeded, hence deterministic; a chance failure of a correct
-        // formula has probability 6e-7, while a wrong factor (e.g. ℓ² → ℓ²/4) is off by 10 %.
-        for k in 0..4 {
-            assert!(
-                (est[k] - exact[k]).abs() < 5.0 * err[k],
-                "k={k}: {} vs {} ± {}",
-                est[k],
-                exact[k],
-                err[k]
-            );
-        }
+        // ≈ 3e-4 relative for the volume with 4e6 samples; a wrong factor (e.g. ℓ² → ℓ²/4) is
+        // off by 10 %.
+        assert_within_5_sigma(&est, &err, &exact);
     }
 
     #[test]
@@ -243,12 +236,7 @@ mod tests {
         let mut rng = crate::rigid::shape::testing::SplitMix(3);
         for _ in 0..1000 {
             let p = Vec3::new(rng.uniform(-3.0, 3.0), rng.uniform(-3.0, 3.0), rng.uniform(-4.0, 4.0));
-            let e = 1e-6;
-            let g = Vec3::new(
-                sd(p.x + e, p.y, p.z) - sd(p.x - e, p.y, p.z),
-                sd(p.x, p.y + e, p.z) - sd(p.x, p.y - e, p.z),
-                sd(p.x, p.y, p.z + e) - sd(p.x, p.y, p.z - e),
-            ) / (2.0 * e);
+            let g = sd_gradient(&c, &p);
             let inside_medial = c.contains(&p) && (1.0 - p.x.hypot(p.y) - (2.0 - p.z.abs())).abs() < 1e-3;
             if !inside_medial && p.x.hypot(p.y) > 1e-3 {
                 assert!((g.norm() - 1.0).abs() < 1e-6, "|grad sd| = {} at {p:?}", g.norm());

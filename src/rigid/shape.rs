@@ -174,6 +174,31 @@ pub(crate) mod testing {
         (est, err)
     }
 
+    /// Asserts that each Monte Carlo estimate lies within five of its standard errors of the
+    /// exact value: a seeded estimator, so the test is deterministic; a correct formula fails
+    /// by chance with probability 6e-7, a wrong factor is off by far more.
+    pub fn assert_within_5_sigma(est: &[f64; 4], err: &[f64; 4], exact: &[f64; 4]) {
+        for k in 0..4 {
+            assert!(
+                (est[k] - exact[k]).abs() < 5.0 * err[k],
+                "k={k}: {} vs {} ± {}",
+                est[k],
+                exact[k],
+                err[k]
+            );
+        }
+    }
+
+    /// `∇ sd` at `p` by central differences of step `1e-6`.
+    pub fn sd_gradient(shape: &dyn Shape, p: &Vec3) -> Vec3 {
+        let e = 1e-6;
+        Vec3::from_fn(|k, _| {
+            let mut dp = Vec3::zeros();
+            dp[k] = e;
+            (shape.signed_distance(&(p + dp)) - shape.signed_distance(&(p - dp))) / (2.0 * e)
+        })
+    }
+
     /// Nearest-neighbour distance of every marker (brute force).
     pub fn nearest_neighbour(m: &[Marker]) -> Vec<f64> {
         m.iter()

@@ -98,7 +98,9 @@ impl Shape for Sphere {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rigid::shape::testing::{check_markers, monte_carlo, nearest_neighbour};
+    use crate::rigid::shape::testing::{
+        assert_within_5_sigma, check_markers, monte_carlo, nearest_neighbour,
+    };
     use crate::rigid::DEFAULT_MARKER_SPACING;
 
     #[test]
@@ -109,17 +111,7 @@ mod tests {
         let (est, err) = monte_carlo(&s, Vec3::repeat(1.0), 4_000_000, 7);
         let exact = [s.volume(), s.principal_moments_unit_density().x, 0.0, 0.0];
         let exact = [exact[0], exact[1], exact[1], exact[1]];
-        // Five standard errors (estimated from the samples): a seeded estimator, so the test is
-        // deterministic; 5σ would be exceeded by chance with probability 6e-7.
-        for k in 0..4 {
-            assert!(
-                (est[k] - exact[k]).abs() < 5.0 * err[k],
-                "k={k}: {} vs {} ± {}",
-                est[k],
-                exact[k],
-                err[k]
-            );
-        }
+        assert_within_5_sigma(&est, &err, &exact);
     }
 
     #[test]
