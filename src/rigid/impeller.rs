@@ -273,7 +273,9 @@ impl Part {
 pub struct Impeller {
     geometry: ImpellerGeometry,
     parts: Vec<Part>,
-    area: f64,
+    /// The exposed area, computed on first use (the PBT's quadrature takes a fraction of a
+    /// second at full scale).
+    area: std::sync::OnceLock<f64>,
 }
 
 impl Impeller {
@@ -348,9 +350,7 @@ impl Impeller {
                 markers: PartMarkers::Tube { r: 0.5 * geometry.shaft_diameter, z0: top, z1: l },
             });
         }
-        let mut imp = Self { geometry, parts, area: 0.0 };
-        imp.area = imp.exposed_area();
-        Ok(imp)
+        Ok(Self { geometry, parts, area: std::sync::OnceLock::new() })
     }
 
     /// The dimensions.
@@ -478,7 +478,7 @@ impl Shape for Impeller {
     }
 
     fn surface_area(&self) -> f64 {
-        self.area
+        *self.area.get_or_init(|| self.exposed_area())
     }
 
     /// Nominal: the diagonal of the parts' inertia tensors about the impeller origin, summed.
