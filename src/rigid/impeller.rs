@@ -107,6 +107,16 @@ impl ImpellerGeometry {
         }
     }
 
+    /// Half the impeller's height along the axis (shaft excluded): half the disk thickness,
+    /// or half the hub height (which [`ImpellerGeometry::validate`] requires to cover the
+    /// blades' vertical extent).
+    pub fn half_height(&self) -> f64 {
+        match self.kind {
+            ImpellerKind::Disk { thickness } => 0.5 * thickness,
+            ImpellerKind::PitchedBlade { hub_height, .. } => 0.5 * hub_height,
+        }
+    }
+
     /// Checks that the dimensions describe a connected impeller. The error names the
     /// dimension (as the case file's key) and the allowed range.
     pub fn validate(&self) -> Result<(), GeometryError> {
@@ -115,7 +125,7 @@ impl ImpellerGeometry {
         if !pos(self.diameter) {
             return err("diameter", self.diameter, "> 0".into());
         }
-        let top = match self.kind {
+        match self.kind {
             ImpellerKind::Disk { thickness } => {
                 if !pos(thickness) || thickness >= self.diameter {
                     return err(
@@ -124,7 +134,6 @@ impl ImpellerGeometry {
                         format!("0 < thickness < diameter = {}", self.diameter),
                     );
                 }
-                0.5 * thickness
             }
             ImpellerKind::PitchedBlade {
                 blades,
@@ -181,9 +190,9 @@ impl ImpellerGeometry {
                         format!(">= {need:.4} (the blades' vertical extent)"),
                     );
                 }
-                0.5 * hub_height
             }
-        };
+        }
+        let top = self.half_height();
         if self.shaft_length != 0.0 {
             if !(self.shaft_length.is_finite() && self.shaft_length > top) {
                 return err(
@@ -287,7 +296,7 @@ impl Impeller {
         geometry.validate()?;
         let mut parts = Vec::new();
         let r_imp = 0.5 * geometry.diameter;
-        let top = match geometry.kind {
+        match geometry.kind {
             ImpellerKind::Disk { thickness } => {
                 parts.push(Part {
                     shape: Arc::new(Cylinder::new(geometry.diameter, thickness)),
@@ -295,7 +304,6 @@ impl Impeller {
                     rotation: Mat3::identity(),
                     markers: PartMarkers::Shape,
                 });
-                0.5 * thickness
             }
             ImpellerKind::PitchedBlade {
                 blades,
@@ -336,9 +344,9 @@ impl Impeller {
                         markers: PartMarkers::Shape,
                     });
                 }
-                0.5 * hub_height
             }
-        };
+        }
+        let top = geometry.half_height();
         if geometry.shaft_length > 0.0 {
             // The shaft's solid reaches down to the mid-plane (its bottom end is inside the
             // disk or hub); its markers only cover the exposed mantle.
@@ -428,12 +436,7 @@ impl Impeller {
 
     /// The extent `(z_lo, z_hi)` along the axis, shaft included.
     pub fn axial_extent(&self) -> (f64, f64) {
-        let half = match self.geometry.kind {
-            ImpellerKind::Disk { thickness } => 0.5 * thickness,
-            ImpellerKind::PitchedBlade { hub_height, pitch, blade_width, blade_thickness, .. } => {
-                0.5 * hub_height.max(blade_vertical_extent(pitch, blade_width, blade_thickness))
-            }
-        };
+        let half = self.geometry.half_height();
         (-half, half.max(self.geometry.shaft_length))
     }
 
