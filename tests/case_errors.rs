@@ -355,7 +355,7 @@ fn random_population_rules() {
         &r_edit("count", "volume_fraction = 1e-6"),
         &["random_particles[0].volume_fraction = 0.000001", "rounds to 0"],
     );
-    rejects(&r_edit("seed", "seed = 1\nclearance = 0.5"), &["random_particles[0].clearance = 0.5", ">= 1"]);
+    rejects(&r_edit("seed", "seed = 1\nclearance = 0.4"), &["random_particles[0].clearance = 0.4", ">= 0.5"]);
     rejects(&r_edit("seed", "seed = -1"), &["random_particles[0].seed", "-1"]);
     rejects(&r_edit("seed", ""), &["missing key `random_particles[0].seed`"]);
     rejects(

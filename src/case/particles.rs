@@ -262,7 +262,7 @@ pub struct RandomParticles {
     /// on periodic axes (where particles may then cross the boundary).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub region: Option<[[f64; 3]; 2]>,
-    /// Smallest surface-to-surface distance to every other particle (≥ 1; default 1).
+    /// Smallest surface-to-surface distance to every other particle (≥ 0.5; default 1).
     #[serde(default = "one")]
     pub clearance: f64,
     /// `"free"` (default) or `"fixed"`.
@@ -651,11 +651,11 @@ impl Case {
             }
             _ => {}
         }
-        if !(r.clearance.is_finite() && r.clearance >= 1.0) {
+        if !(r.clearance.is_finite() && r.clearance >= 0.5) {
             return Err(invalid(
                 format!("{pre}.clearance"),
                 r.clearance,
-                "must be finite and >= 1 (lattice units, surface to surface; default 1)",
+                "must be finite and >= 0.5 (lattice units, surface to surface, at least the elastic range delta0 = 0.5 of Table 1; default 1)",
             ));
         }
         if r.motion == MotionKind::Prescribed {
