@@ -1,10 +1,13 @@
-//! Writes one figure of each kind made by `slurry::plot` into a directory:
+//! Writes one figure of each kind made by `slurry::plot` into a directory, each as PNG and
+//! as SVG:
 //!
-//! - `field.png`: a synthetic stand-in for the paper's Figures 3 and 4, `|u| / v_tip` on a
-//!   vertical plane through the axis of a stirred tank (a swirling jet leaving the impeller
-//!   blades, decaying towards the wall), the impeller and shaft masked as NaN (grey);
-//! - `power.png`: power-number time series (linear axes, lines, lines with markers);
-//! - `histogram.png`: a particle-statistics profile on a logarithmic y axis (markers).
+//! - `field.{png,svg}`: a synthetic stand-in for the paper's Figures 3 and 4, `|u| / v_tip`
+//!   on a vertical plane through the axis of a stirred tank (a swirling jet leaving the
+//!   impeller blades, decaying towards the wall), the impeller and shaft masked as NaN
+//!   (grey), with the sections of a few cylindrical particles cut by the plane outlined
+//!   ([`cylinder_section`]) — upright, lying, tilted, and one sticking out of the map;
+//! - `power.{png,svg}`: power-number time series (linear axes, lines, lines with markers);
+//! - `histogram.{png,svg}`: a particle-statistics profile on a logarithmic y axis (markers).
 //!
 //! Usage: `cargo run --release --example plot_demo -- OUT_DIR`
 
@@ -12,7 +15,8 @@ use std::f64::consts::PI;
 use std::path::PathBuf;
 
 use slurry::plot::{
-    write_field_png, write_line_png, FieldImage, FieldSize, LegendPosition, LinePlot, Series, SeriesStyle,
+    cylinder_section, write_field_png, write_field_svg, write_line_png, write_line_svg, FieldImage,
+    FieldSize, LegendPosition, LinePlot, Series, SeriesStyle,
 };
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -44,6 +48,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             };
         }
     }
+    // Cylinders (in lattice units, tank axis at x = y = 0, mid-plane y = 0): centre, axis,
+    // diameter, length. Their sections by the plane, scaled to the figure's units (x / T,
+    // z / T).
+    let s = (0.5f64).sqrt();
+    let cylinders: [([f64; 3], [f64; 3], f64, f64); 7] = [
+        ([-45.0, 0.5, 4.0], [0.0, 0.0, 1.0], 6.0, 24.0), // standing upright
+        ([-25.0, -1.0, 3.2], [1.0, 0.0, 0.0], 6.0, 24.0), // lying along x
+        ([5.0, 1.5, 3.2], [0.0, 1.0, 0.0], 6.0, 6.0),    // lying across the plane: a disk
+        ([25.0, 2.0, 10.0], [s, 0.4, s * 0.9], 6.0, 24.0), // tilted, cut by a cap
+        ([40.0, 0.0, 60.0], [0.6, 0.48, 0.64], 6.0, 12.0), // tilted, suspended
+        ([-10.0, 0.0, 90.0], [0.0, 0.8, 0.6], 6.0, 24.0), // tilted through the side
+        ([58.0, 0.0, 30.0], [1.0, 0.0, 0.2], 6.0, 24.0), // sticking out of the map
+    ];
+    let outlines: Vec<Vec<(f64, f64)>> = cylinders
+        .iter()
+        .filter_map(|&(c, a, d, l)| cylinder_section(c, a, d, l, 0.0, 96))
+        .map(|poly| poly.into_iter().map(|(x, z)| (x / t, z / t)).collect())
+        .collect();
     let img = FieldImage {
         values: &speed,
         nx,
@@ -55,9 +77,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         colorbar_label: "|u| / v_tip",
         x_label: "r / T",
         y_label: "z / T",
+        outlines: &outlines,
     };
     let field = dir.join("field.png");
     write_field_png(&field, &img, FieldSize::PixelsPerNode(4))?;
+    let field_svg = dir.join("field.svg");
+    write_field_svg(&field_svg, &img, FieldSize::PixelsPerNode(4))?;
 
     // Power number vs time, two impellers.
     let np = |np0: f64, k: f64| -> Vec<(f64, f64)> {
@@ -84,6 +109,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let power_path = dir.join("power.png");
     write_line_png(&power_path, &power, 800, 500)?;
+    let power_svg = dir.join("power.svg");
+    write_line_svg(&power_svg, &power, 800, 500)?;
 
     // A histogram-like profile on a log axis.
     let bins: Vec<(f64, f64)> = (0..25)
@@ -106,8 +133,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let hist_path = dir.join("histogram.png");
     write_line_png(&hist_path, &hist, 700, 480)?;
+    let hist_svg = dir.join("histogram.svg");
+    write_line_svg(&hist_svg, &hist, 700, 480)?;
 
-    for p in [field, power_path, hist_path] {
+    for p in [field, field_svg, power_path, power_svg, hist_path, hist_svg] {
         println!("{}", p.display());
     }
     Ok(())

@@ -1,21 +1,30 @@
-//! PNG figures: field images (heat maps with a colour bar) and x–y line/scatter plots.
+//! Figures as PNG and SVG: field images (heat maps with a colour bar) and x–y line/scatter
+//! plots, plus the cross-sections of cylinders to outline particles on a field image.
 //!
-//! Two kinds of figure, both drawn with `plotters` into an in-memory RGB buffer, encoded as
-//! an 8-bit RGB PNG and written atomically ([`crate::io::atomic_write_bytes`]):
+//! Two kinds of figure, each drawn by one layout routine that is generic over the drawing
+//! backend: into an in-memory RGB buffer encoded as an 8-bit RGB PNG, or into an SVG
+//! document (through this module's own small SVG backend, which needs neither plotters'
+//! `svg_backend` nor an image library); either is written atomically
+//! ([`crate::io::atomic_write_bytes`]):
 //!
-//! - [`write_field_png`]: a scalar field on a 2-D grid of nodes (for instance the speed
-//!   `|u| / v_tip` on the vertical mid-plane through the impeller axis, the paper's
-//!   Figures 3 and 4), coloured with the perceptually uniform viridis map ([`viridis`]),
-//!   with equal aspect ratio of the physical extent, ticked axes and a ticked colour bar;
-//! - [`write_line_png`]: one or more x–y [`Series`] (lines, markers or both) with a legend,
-//!   axis labels, optional fixed ranges and optional logarithmic axes (time series of the
-//!   power number, profiles and histograms of particle statistics).
+//! - [`write_field_png`] / [`write_field_svg`]: a scalar field on a 2-D grid of nodes (for
+//!   instance the speed `|u| / v_tip` on the vertical mid-plane through the impeller axis,
+//!   the paper's Figures 3 and 4), coloured with the perceptually uniform viridis map
+//!   ([`viridis`]), with equal aspect ratio of the physical extent, ticked axes, a ticked
+//!   colour bar and optional outlines (the particles' sections, [`cylinder_section`]);
+//! - [`write_line_png`] / [`write_line_svg`]: one or more x–y [`Series`] (lines, markers or
+//!   both) with a legend, axis labels, optional fixed ranges and optional logarithmic axes
+//!   (time series of the power number, profiles and histograms of particle statistics).
 //!
 //! Text is set in DejaVu Sans, bundled with the crate (`assets/fonts/DejaVuSans.ttf`, with
 //! its licence beside it, compiled in with `include_bytes!`) and registered with `plotters`
 //! on first use, so that figures render identically on a machine without any system fonts
-//! or fontconfig. The glyphs themselves are placed by this module's bitmap backend wrapper
-//! (plotters' own `ab_glyph` path drops the glyphs' side bearings, "1 00" for "100").
+//! or fontconfig. In a PNG the glyphs are placed by this module's bitmap backend wrapper
+//! (plotters' own `ab_glyph` path drops the glyphs' side bearings, "1 00" for "100"). An SVG
+//! holds the text as `<text>` elements in the font family "DejaVu Sans" (falling back to
+//! the viewer's sans-serif), laid out with the bundled font's metrics, so that both files
+//! share one layout; the heat maps of an SVG are embedded PNG images of the same pixels as
+//! the PNG figure's, not one element per node.
 //!
 //! Bad input (empty data, a field whose length is not `nx·ny`, `vmin ≥ vmax`, non-finite or
 //! empty ranges, non-positive ranges on a logarithmic axis, sizes out of bounds) is reported
@@ -29,12 +38,20 @@ use std::sync::OnceLock;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
+use plotters::element::{Drawable, PointCollection};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle, FontTransform};
 
 use crate::io::atomic_write_bytes;
 use canvas::{bundled_font, Canvas};
+use plotters_backend::{BackendCoord, DrawingErrorKind};
+use svg::SvgCanvas;
+
+mod section;
+mod svg;
+
+pub use section::cylinder_section;
 
 /// The family name under which the bundled DejaVu Sans is registered with `plotters`.
 const FONT_FAMILY: &str = "slurry-dejavu-sans";
@@ -192,21 +209,127 @@ fn guarded<T>(path: &Path, render: impl FnOnce() -> DrawResult<T>) -> Result<T, 
     }
 }
 
+/// Encodes an 8-bit RGB buffer (`w·h·3` bytes, rows top to bottom) as PNG.
+fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, png::EncodingError> {
+    let mut out = Vec::new();
+    let mut enc = png::Encoder::new(&mut out, w, h);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc.write_header()?;
+    writer.write_image_data(rgb)?;
+    writer.finish()?;
+    Ok(out)
+}
+
 /// Encodes an 8-bit RGB buffer (`w·h·3` bytes, rows top to bottom) as PNG and writes it
 /// atomically to `path`.
 fn write_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), PlotError> {
-    let encode = || -> Result<Vec<u8>, png::EncodingError> {
-        let mut out = Vec::new();
-        let mut enc = png::Encoder::new(&mut out, w, h);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut writer = enc.write_header()?;
-        writer.write_image_data(rgb)?;
-        writer.finish()?;
-        Ok(out)
-    };
-    let bytes = encode().map_err(|source| PlotError::Encode { path: path.to_path_buf(), source })?;
-    atomic_write_bytes(path, &bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
+    let bytes =
+        encode_png(rgb, w, h).map_err(|source| PlotError::Encode { path: path.to_path_buf(), source })?;
+    write_bytes(path, &bytes)
+}
+
+/// Writes a finished file atomically to `path`.
+fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
+    atomic_write_bytes(path, bytes).map_err(|source| PlotError::Io { path: path.to_path_buf(), source })
+}
+
+/// A drawing backend that can also paint a [`Raster`] over a rectangle of pixels: the
+/// bitmap resamples it to the pixels, the SVG embeds it as an image.
+trait Surface: DrawingBackend {
+    /// Paints `raster` stretched over the `size` pixels whose upper left pixel is
+    /// `upper_left`: pixel `(px, py)` of the rectangle takes the cell that holds its centre.
+    fn draw_raster(
+        &mut self,
+        upper_left: BackendCoord,
+        size: (u32, u32),
+        raster: &Raster,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>>;
+}
+
+/// A grid of `cols × rows` RGB cells, rows from top to bottom (`rgb[3·(r·cols + c)..][..3]`).
+struct Raster {
+    cols: usize,
+    rows: usize,
+    rgb: Vec<u8>,
+}
+
+impl Raster {
+    /// A raster of the given size from the colour of each cell `(col, row)`, row 0 at the top.
+    fn from_fn(cols: usize, rows: usize, mut color: impl FnMut(usize, usize) -> RGBColor) -> Self {
+        let mut rgb = Vec::with_capacity(cols * rows * 3);
+        for r in 0..rows {
+            for c in 0..cols {
+                let RGBColor(red, green, blue) = color(c, r);
+                rgb.extend_from_slice(&[red, green, blue]);
+            }
+        }
+        Raster { cols, rows, rgb }
+    }
+
+    /// The raster resampled to `w × h` pixels (each pixel takes the cell holding its centre),
+    /// as an RGB buffer.
+    fn resample(&self, w: u32, h: u32) -> Vec<u8> {
+        let cell =
+            |p: u32, np: u32, n: usize| (((p as f64 + 0.5) / np as f64 * n as f64) as usize).min(n - 1);
+        let cols: Vec<usize> = (0..w).map(|px| cell(px, w, self.cols)).collect();
+        let mut out = Vec::with_capacity(w as usize * h as usize * 3);
+        for py in 0..h {
+            let r = cell(py, h, self.rows);
+            for &c in &cols {
+                let k = 3 * (r * self.cols + c);
+                out.extend_from_slice(&self.rgb[k..k + 3]);
+            }
+        }
+        out
+    }
+}
+
+/// A [`Raster`] as a drawing element filling a drawing area (drawn at the area's origin).
+struct RasterElement {
+    raster: Raster,
+    origin: BackendCoord,
+    size: (u32, u32),
+}
+
+impl<'a> PointCollection<'a, BackendCoord> for &'a RasterElement {
+    type Point = &'a BackendCoord;
+    type IntoIter = std::iter::Once<&'a BackendCoord>;
+    fn point_iter(self) -> Self::IntoIter {
+        std::iter::once(&self.origin)
+    }
+}
+
+impl<DB: Surface> Drawable<DB> for RasterElement {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut points: I,
+        backend: &mut DB,
+        _: (u32, u32),
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        match points.next() {
+            Some(at) if self.raster.cols > 0 && self.raster.rows > 0 => {
+                backend.draw_raster(at, self.size, &self.raster)
+            }
+            _ => Ok(()),
+        }
+    }
+}
+
+/// Fills the whole of `area` (its pixel range) with `raster`.
+fn paint_raster<DB, CT>(area: &DrawingArea<DB, CT>, raster: Raster) -> DrawResult<()>
+where
+    DB: Surface,
+    DB::ErrorType: 'static,
+    CT: plotters::coord::CoordTranslate,
+{
+    let (xr, yr) = area.get_pixel_range();
+    let size = (xr.len() as u32, yr.len() as u32);
+    if size.0 == 0 || size.1 == 0 {
+        return Ok(());
+    }
+    area.strip_coord_spec().draw(&RasterElement { raster, origin: (0, 0), size })?;
+    Ok(())
 }
 
 /// Strips trailing zeros (and a trailing point) from a decimal number's text.
@@ -257,7 +380,8 @@ fn fmt_log_tick(v: f64) -> String {
 // Field images
 // ---------------------------------------------------------------------------------------------
 
-/// A scalar field on a 2-D grid of nodes, to be drawn as a heat map by [`write_field_png`].
+/// A scalar field on a 2-D grid of nodes, to be drawn as a heat map by [`write_field_png`]
+/// or [`write_field_svg`].
 ///
 /// Node `(i, j)`, `0 ≤ i < nx`, `0 ≤ j < ny`, is `values[j·nx + i]` (row-major, `x`
 /// fastest; row `j` is the vertical index, `j = 0` at the bottom). It is drawn as the cell
@@ -273,7 +397,12 @@ fn fmt_log_tick(v: f64) -> String {
 /// For the paper's Figures 3 and 4: `values = |u| / v_tip` on the vertical plane through the
 /// impeller axis (`v_tip = π N D`, impeller speed `N` in rev per time step and diameter `D`
 /// in lattice spacings), extent in lattice units or scaled by the tank diameter `T`,
-/// `vmin = 0`, `vmax = 1`.
+/// `vmin = 0`, `vmax = 1`, and the particles cut by the plane outlined with
+/// [`cylinder_section`] (in the extent's units).
+///
+/// Outlines: closed polygons drawn over the map as thin (1 pixel) white lines, clipped to
+/// the extent; a polygon's last vertex is joined to its first. Vertices with a non-finite
+/// coordinate break the line there.
 #[derive(Clone, Debug)]
 pub struct FieldImage<'a> {
     /// Node values, row-major (`values[j·nx + i]`), `nx·ny` of them.
@@ -297,6 +426,9 @@ pub struct FieldImage<'a> {
     pub x_label: &'a str,
     /// Label of the vertical axis (empty: none).
     pub y_label: &'a str,
+    /// Closed polygons `[(x, y), …]` in the extent's coordinates, outlined over the map
+    /// (for instance the particles' sections by the plane); `&[]` for none.
+    pub outlines: &'a [Vec<(f64, f64)>],
 }
 
 /// How large the map of a [`FieldImage`] is drawn (the coloured area alone; axes, title and
@@ -328,15 +460,45 @@ fn field_title_height(title: &str) -> u32 {
 }
 
 /// Writes `img` as a PNG heat map: the field in viridis with ticked axes, equal aspect
-/// ratio of the extent, a colour bar with ticks on the right, and the title on top.
-/// The file is written atomically. Errors ([`PlotError::Input`]) for `values.len() ≠ nx·ny`,
-/// an empty grid, a non-finite or empty extent or colour range (`vmin ≥ vmax`), a size of
-/// zero, or a figure larger than [`MAX_SIDE`] pixels on a side.
+/// ratio of the extent, the outlines, a colour bar with ticks on the right, and the title
+/// on top. The file is written atomically. Errors ([`PlotError::Input`]) for
+/// `values.len() ≠ nx·ny`, an empty grid, a non-finite or empty extent or colour range
+/// (`vmin ≥ vmax`), a size of zero, or a figure larger than [`MAX_SIDE`] pixels on a side.
 pub fn write_field_png(path: &Path, img: &FieldImage, size: FieldSize) -> Result<(), PlotError> {
     let bad = |reason: String| PlotError::Input { path: path.to_path_buf(), reason };
     let (mw, mh) = check_field(img, size).map_err(bad)?;
-    let (rgb, w, h) = guarded(path, || render_field(img, mw, mh))?;
+    let (w, h) = field_figure_size(img, mw, mh);
+    let rgb = guarded(path, || {
+        let mut buf = vec![255u8; w as usize * h as usize * 3];
+        {
+            let root = Canvas(BitMapBackend::with_buffer(&mut buf, (w, h))).into_drawing_area();
+            draw_field(&root, img, mw, mh)?;
+            root.present()?;
+        }
+        Ok(buf)
+    })?;
     write_png(path, &rgb, w, h)
+}
+
+/// Writes `img` as an SVG heat map, laid out exactly as [`write_field_png`] lays out the PNG
+/// of the same `size` (one SVG user unit per PNG pixel): axes, ticks, labels, frames and
+/// outlines as vector elements, text as `<text>`, the map and the colour bar as embedded PNG
+/// images of exactly the PNG's pixels (not one element per node). The file is written
+/// atomically; errors as for [`write_field_png`].
+pub fn write_field_svg(path: &Path, img: &FieldImage, size: FieldSize) -> Result<(), PlotError> {
+    let bad = |reason: String| PlotError::Input { path: path.to_path_buf(), reason };
+    let (mw, mh) = check_field(img, size).map_err(bad)?;
+    let (w, h) = field_figure_size(img, mw, mh);
+    let doc = guarded(path, || {
+        let mut doc = String::new();
+        {
+            let root = SvgCanvas::new(&mut doc, (w, h)).into_drawing_area();
+            draw_field(&root, img, mw, mh)?;
+            root.present()?;
+        }
+        Ok(doc)
+    })?;
+    write_bytes(path, doc.as_bytes())
 }
 
 /// Validates a field image and returns the map's size in pixels.
@@ -383,122 +545,147 @@ fn check_field(img: &FieldImage, size: FieldSize) -> Result<(u32, u32), String> 
     Ok((mw as u32, mh as u32))
 }
 
-/// Draws a validated field image with a `mw × mh` pixel map; returns the RGB buffer and the
-/// figure's size.
-fn render_field(img: &FieldImage, mw: u32, mh: u32) -> DrawResult<(Vec<u8>, u32, u32)> {
+/// The size of a field figure, in pixels, whose map is `mw × mh` pixels.
+fn field_figure_size(img: &FieldImage, mw: u32, mh: u32) -> (u32, u32) {
+    let w = FIELD_OUTER + FIELD_LEFT + mw + FIELD_GAP + BAR_WIDTH + BAR_LABELS + FIELD_OUTER;
+    let h = field_title_height(img.title) + mh + FIELD_BOTTOM + FIELD_OUTER;
+    (w, h)
+}
+
+/// Draws a validated field image with a `mw × mh` pixel map on `root`, which is
+/// [`field_figure_size`] large.
+fn draw_field<DB>(root: &DrawingArea<DB, Shift>, img: &FieldImage, mw: u32, mh: u32) -> DrawResult<()>
+where
+    DB: Surface,
+    DB::ErrorType: 'static,
+{
     let title_h = field_title_height(img.title);
     let map_w = FIELD_LEFT + mw + FIELD_GAP;
     let bar_w = BAR_WIDTH + BAR_LABELS;
-    let w = FIELD_OUTER + map_w + bar_w + FIELD_OUTER;
-    let h = title_h + mh + FIELD_BOTTOM + FIELD_OUTER;
+    let (w, _) = field_figure_size(img, mw, mh);
     let (x0, x1, y0, y1) = img.extent;
     let (vmin, vmax) = (img.vmin, img.vmax);
-
-    let mut buf = vec![255u8; w as usize * h as usize * 3];
-    {
-        let root = Canvas(BitMapBackend::with_buffer(&mut buf, (w, h))).into_drawing_area();
-        root.fill(&WHITE)?;
-        if !img.title.is_empty() {
-            let style = font(TITLE_FONT).pos(Pos::new(HPos::Center, VPos::Top));
-            root.draw(&Text::new(img.title.to_string(), (w as i32 / 2, 12), style))?;
-        }
-
-        // The map.
-        let map_area = root.clone().shrink((FIELD_OUTER, title_h), (map_w, mh + FIELD_BOTTOM));
-        let mut chart = ChartBuilder::on(&map_area)
-            .x_label_area_size(FIELD_BOTTOM)
-            .y_label_area_size(FIELD_LEFT)
-            .margin_right(FIELD_GAP)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
-        paint_map(chart.plotting_area(), img)?;
-        let (xspan, yspan) = (x1 - x0, y1 - y0);
-        let fx = move |v: &f64| fmt_linear_tick(*v, xspan);
-        let fy = move |v: &f64| fmt_linear_tick(*v, yspan);
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_labels((mw as usize / 70).clamp(2, 12))
-            .y_labels((mh as usize / 50).clamp(2, 12))
-            .x_label_formatter(&fx)
-            .y_label_formatter(&fy)
-            .label_style(font(TICK_FONT))
-            .axis_desc_style(font(LABEL_FONT))
-            .x_desc(img.x_label)
-            .y_desc(img.y_label)
-            .draw()?;
-        frame(chart.plotting_area())?;
-
-        // The colour bar.
-        let bar_area = root.clone().shrink((FIELD_OUTER + map_w, title_h), (bar_w, mh + FIELD_BOTTOM));
-        let mut bar = ChartBuilder::on(&bar_area)
-            .right_y_label_area_size(BAR_LABELS)
-            .margin_bottom(FIELD_BOTTOM)
-            .build_cartesian_2d(0.0..1.0, vmin..vmax)?;
-        paint_bar(bar.plotting_area(), vmin, vmax)?;
-        let vspan = vmax - vmin;
-        let fv = move |v: &f64| fmt_linear_tick(*v, vspan);
-        bar.configure_mesh()
-            .disable_mesh()
-            .disable_x_axis()
-            .y_labels((mh as usize / 40).clamp(2, 12))
-            .y_label_formatter(&fv)
-            .label_style(font(TICK_FONT))
-            .draw()?;
-        frame(bar.plotting_area())?;
-        if !img.colorbar_label.is_empty() {
-            // Read bottom to top, like the y label (plotters would set a right-hand label top
-            // to bottom).
-            let style = font(LABEL_FONT)
-                .transform(FontTransform::Rotate270)
-                .pos(Pos::new(HPos::Center, VPos::Center));
-            let at = ((FIELD_OUTER + map_w + bar_w) as i32 - 14, (title_h + mh / 2) as i32);
-            root.draw(&Text::new(img.colorbar_label.to_string(), at, style))?;
-        }
-        root.present()?;
+    root.fill(&WHITE)?;
+    if !img.title.is_empty() {
+        let style = font(TITLE_FONT).pos(Pos::new(HPos::Center, VPos::Top));
+        root.draw(&Text::new(img.title.to_string(), (w as i32 / 2, 12), style))?;
     }
-    Ok((buf, w, h))
-}
 
-type Plane<'a> = DrawingArea<Canvas<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+    // The map.
+    let map_area = root.clone().shrink((FIELD_OUTER, title_h), (map_w, mh + FIELD_BOTTOM));
+    let mut chart = ChartBuilder::on(&map_area)
+        .x_label_area_size(FIELD_BOTTOM)
+        .y_label_area_size(FIELD_LEFT)
+        .margin_right(FIELD_GAP)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    paint_map(chart.plotting_area(), img)?;
+    draw_outlines(&mut chart, img)?;
+    let (xspan, yspan) = (x1 - x0, y1 - y0);
+    let fx = move |v: &f64| fmt_linear_tick(*v, xspan);
+    let fy = move |v: &f64| fmt_linear_tick(*v, yspan);
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels((mw as usize / 70).clamp(2, 12))
+        .y_labels((mh as usize / 50).clamp(2, 12))
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .label_style(font(TICK_FONT))
+        .axis_desc_style(font(LABEL_FONT))
+        .x_desc(img.x_label)
+        .y_desc(img.y_label)
+        .draw()?;
+    frame(chart.plotting_area())?;
 
-/// Colours every pixel of the plotting area with the node whose cell holds the pixel's
-/// centre.
-fn paint_map(area: &Plane, img: &FieldImage) -> DrawResult<()> {
-    let (xr, yr) = area.get_pixel_range();
-    let (pw, ph) = (xr.len(), yr.len());
-    let raw = area.strip_coord_spec();
-    let cell =
-        |p: usize, np: usize, n: usize| (((p as f64 + 0.5) / np as f64 * n as f64) as usize).min(n - 1);
-    for py in 0..ph {
-        // Pixel rows run top to bottom; node rows bottom to top.
-        let j = img.ny - 1 - cell(py, ph, img.ny);
-        let row = &img.values[j * img.nx..(j + 1) * img.nx];
-        for px in 0..pw {
-            let v = row[cell(px, pw, img.nx)];
-            raw.draw_pixel((px as i32, py as i32), &scale_color(v, img.vmin, img.vmax))?;
-        }
+    // The colour bar.
+    let bar_area = root.clone().shrink((FIELD_OUTER + map_w, title_h), (bar_w, mh + FIELD_BOTTOM));
+    let mut bar = ChartBuilder::on(&bar_area)
+        .right_y_label_area_size(BAR_LABELS)
+        .margin_bottom(FIELD_BOTTOM)
+        .build_cartesian_2d(0.0..1.0, vmin..vmax)?;
+    paint_bar(bar.plotting_area(), vmin, vmax)?;
+    let vspan = vmax - vmin;
+    let fv = move |v: &f64| fmt_linear_tick(*v, vspan);
+    bar.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_labels((mh as usize / 40).clamp(2, 12))
+        .y_label_formatter(&fv)
+        .label_style(font(TICK_FONT))
+        .draw()?;
+    frame(bar.plotting_area())?;
+    if !img.colorbar_label.is_empty() {
+        // Read bottom to top, like the y label (plotters would set a right-hand label top
+        // to bottom).
+        let style =
+            font(LABEL_FONT).transform(FontTransform::Rotate270).pos(Pos::new(HPos::Center, VPos::Center));
+        let at = ((FIELD_OUTER + map_w + bar_w) as i32 - 14, (title_h + mh / 2) as i32);
+        root.draw(&Text::new(img.colorbar_label.to_string(), at, style))?;
     }
     Ok(())
 }
 
+type Plane<DB> = DrawingArea<DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Colours every pixel of the plotting area with the node whose cell holds the pixel's
+/// centre (the nodes as a raster of `nx × ny` cells).
+fn paint_map<DB>(area: &Plane<DB>, img: &FieldImage) -> DrawResult<()>
+where
+    DB: Surface,
+    DB::ErrorType: 'static,
+{
+    // Raster rows run top to bottom; node rows bottom to top.
+    let raster = Raster::from_fn(img.nx, img.ny, |i, r| {
+        scale_color(img.values[(img.ny - 1 - r) * img.nx + i], img.vmin, img.vmax)
+    });
+    paint_raster(area, raster)
+}
+
 /// Fills the colour bar's plotting area: each pixel row with the colour of the value at its
 /// centre.
-fn paint_bar(area: &Plane, vmin: f64, vmax: f64) -> DrawResult<()> {
-    let (xr, yr) = area.get_pixel_range();
-    let (pw, ph) = (xr.len(), yr.len());
-    let raw = area.strip_coord_spec();
-    for py in 0..ph {
-        let v = vmax - (py as f64 + 0.5) / ph as f64 * (vmax - vmin);
-        let c = scale_color(v, vmin, vmax);
-        for px in 0..pw {
-            raw.draw_pixel((px as i32, py as i32), &c)?;
+fn paint_bar<DB>(area: &Plane<DB>, vmin: f64, vmax: f64) -> DrawResult<()>
+where
+    DB: Surface,
+    DB::ErrorType: 'static,
+{
+    let ph = area.get_pixel_range().1.len();
+    let raster = Raster::from_fn(1, ph, |_, py| {
+        scale_color(vmax - (py as f64 + 0.5) / ph as f64 * (vmax - vmin), vmin, vmax)
+    });
+    paint_raster(area, raster)
+}
+
+/// Draws the field image's outlines on the map, clipped to the extent.
+fn draw_outlines<DB>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    img: &FieldImage,
+) -> DrawResult<()>
+where
+    DB: Surface,
+    DB::ErrorType: 'static,
+{
+    let (x0, x1, y0, y1) = img.extent;
+    let linear = Axis { log: false };
+    let line = WHITE.stroke_width(1);
+    for polygon in img.outlines {
+        let Some(&first) = polygon.first() else { continue };
+        let mut closed = polygon.clone();
+        closed.push(first);
+        let ring = Series::new("", closed, SeriesStyle::Line);
+        for l in pieces(&ring, linear, linear, (x0, x1), (y0, y1)).lines {
+            chart.draw_series(std::iter::once(PathElement::new(l, line)))?;
         }
     }
     Ok(())
 }
 
 /// A one-pixel black frame just inside the plotting area.
-fn frame<CT: plotters::coord::CoordTranslate>(area: &DrawingArea<Canvas<'_>, CT>) -> DrawResult<()> {
+fn frame<DB, CT>(area: &DrawingArea<DB, CT>) -> DrawResult<()>
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+    CT: plotters::coord::CoordTranslate,
+{
     let (xr, yr) = area.get_pixel_range();
     let raw = area.strip_coord_spec();
     let (w, h) = (xr.len() as i32, yr.len() as i32);
@@ -560,8 +747,8 @@ pub enum LegendPosition {
     Hidden,
 }
 
-/// An x–y plot of one or more [`Series`], drawn by [`write_line_png`]. Series get distinct
-/// colours in order (matplotlib's "tab10" cycle).
+/// An x–y plot of one or more [`Series`], drawn by [`write_line_png`] or [`write_line_svg`].
+/// Series get distinct colours in order (matplotlib's "tab10" cycle).
 ///
 /// Ranges: `None` takes the range of the drawable points plus 4 % on each side (in decades
 /// on a logarithmic axis; a single value gets ±5 %, or ±1 at zero, or ±½ decade). A given
@@ -612,8 +799,35 @@ const PALETTE: [RGBColor; 10] = [
 pub fn write_line_png(path: &Path, plot: &LinePlot, width: u32, height: u32) -> Result<(), PlotError> {
     let bad = |reason: String| PlotError::Input { path: path.to_path_buf(), reason };
     let (xr, yr) = check_lines(plot, width, height).map_err(bad)?;
-    let rgb = guarded(path, || render_lines(plot, width, height, xr, yr))?;
+    let rgb = guarded(path, || {
+        let mut buf = vec![255u8; width as usize * height as usize * 3];
+        {
+            let root = Canvas(BitMapBackend::with_buffer(&mut buf, (width, height))).into_drawing_area();
+            draw_lines(&root, plot, xr, yr)?;
+            root.present()?;
+        }
+        Ok(buf)
+    })?;
     write_png(path, &rgb, width, height)
+}
+
+/// Writes `plot` as a `width × height` SVG (user units, one per PNG pixel), laid out exactly
+/// as [`write_line_png`] lays out the PNG: axes, grid, series, markers and legend as vector
+/// elements, text as `<text>`. The file is written atomically; errors as for
+/// [`write_line_png`].
+pub fn write_line_svg(path: &Path, plot: &LinePlot, width: u32, height: u32) -> Result<(), PlotError> {
+    let bad = |reason: String| PlotError::Input { path: path.to_path_buf(), reason };
+    let (xr, yr) = check_lines(plot, width, height).map_err(bad)?;
+    let doc = guarded(path, || {
+        let mut doc = String::new();
+        {
+            let root = SvgCanvas::new(&mut doc, (width, height)).into_drawing_area();
+            draw_lines(&root, plot, xr, yr)?;
+            root.present()?;
+        }
+        Ok(doc)
+    })?;
+    write_bytes(path, doc.as_bytes())
 }
 
 /// One axis' mapping into "axis space": `log10` on a logarithmic axis, identity otherwise.
@@ -792,27 +1006,30 @@ fn pieces(s: &Series, ax: Axis, ay: Axis, xr: (f64, f64), yr: (f64, f64)) -> Pie
     Pieces { lines, markers }
 }
 
-/// Draws a validated line plot into a `w × h` RGB buffer.
-fn render_lines(plot: &LinePlot, w: u32, h: u32, xr: (f64, f64), yr: (f64, f64)) -> DrawResult<Vec<u8>> {
-    let mut buf = vec![255u8; w as usize * h as usize * 3];
-    {
-        let root = Canvas(BitMapBackend::with_buffer(&mut buf, (w, h))).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (x, y) = (xr.0..xr.1, yr.0..yr.1);
-        match (plot.log_x, plot.log_y) {
-            (false, false) => draw_chart(&root, plot, x, y, xr, yr)?,
-            (true, false) => draw_chart(&root, plot, x.log_scale(), y, xr, yr)?,
-            (false, true) => draw_chart(&root, plot, x, y.log_scale(), xr, yr)?,
-            (true, true) => draw_chart(&root, plot, x.log_scale(), y.log_scale(), xr, yr)?,
-        }
-        root.present()?;
+/// Draws a validated line plot on `root` (the whole figure).
+fn draw_lines<DB>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &LinePlot,
+    xr: Interval,
+    yr: Interval,
+) -> DrawResult<()>
+where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE)?;
+    let (x, y) = (xr.0..xr.1, yr.0..yr.1);
+    match (plot.log_x, plot.log_y) {
+        (false, false) => draw_chart(root, plot, x, y, xr, yr),
+        (true, false) => draw_chart(root, plot, x.log_scale(), y, xr, yr),
+        (false, true) => draw_chart(root, plot, x, y.log_scale(), xr, yr),
+        (true, true) => draw_chart(root, plot, x.log_scale(), y.log_scale(), xr, yr),
     }
-    Ok(buf)
 }
 
 /// Draws the chart on either kind of axes.
-fn draw_chart<XS, YS>(
-    root: &DrawingArea<Canvas<'_>, Shift>,
+fn draw_chart<DB, XS, YS>(
+    root: &DrawingArea<DB, Shift>,
     plot: &LinePlot,
     xs: XS,
     ys: YS,
@@ -820,6 +1037,8 @@ fn draw_chart<XS, YS>(
     yr: (f64, f64),
 ) -> DrawResult<()>
 where
+    DB: DrawingBackend,
+    DB::ErrorType: 'static,
     XS: AsRangedCoord<Value = f64>,
     YS: AsRangedCoord<Value = f64>,
     XS::CoordDescType: ValueFormatter<f64>,
@@ -928,6 +1147,31 @@ mod canvas {
         FONT.get_or_init(|| FontRef::try_from_slice(FONT_BYTES).ok()).as_ref()
     }
 
+    /// How a text is set with the bundled font at `size` pixels, for backends that place the
+    /// text box themselves (the SVG's `<text>` elements).
+    pub(super) struct TextMetrics {
+        /// The box: `(advance width, ascent − descent)` in whole pixels, as [`Canvas`] sets it.
+        pub(super) size: (i32, i32),
+        /// Baseline below the box's top edge, in pixels.
+        pub(super) ascent: f64,
+        /// The CSS `font-size` (the em) that gives this font the height `size`: ab_glyph's
+        /// pixel scale is the height ascent − descent, CSS sizes the em.
+        pub(super) em: f64,
+    }
+
+    /// The [`TextMetrics`] of `text` at `size` pixels; `None` if the font cannot be parsed.
+    pub(super) fn text_metrics(size: f64, text: &str) -> Option<TextMetrics> {
+        let font = bundled_font()?;
+        let scaled = font.as_scaled(PxScale::from(size as f32));
+        let em = match font.units_per_em() {
+            Some(upem) if font.height_unscaled() > 0.0 => {
+                size * f64::from(upem) / f64::from(font.height_unscaled())
+            }
+            _ => size,
+        };
+        Some(TextMetrics { size: text_box(font, size, text), ascent: f64::from(scaled.ascent()), em })
+    }
+
     /// The box of `text` set at `size` pixels (ascent − descent): `(advance width, size)`.
     fn text_box(font: &FontRef<'static>, size: f64, text: &str) -> (i32, i32) {
         let f = font.as_scaled(PxScale::from(size as f32));
@@ -998,7 +1242,46 @@ mod canvas {
             to: BackendCoord,
             style: &S,
         ) -> CanvasResult {
-            self.0.draw_line(from, to, style)
+            let color = style.color();
+            if style.stroke_width() != 1 || color.alpha == 0.0 {
+                return self.0.draw_line(from, to, style);
+            }
+            if from.0 == to.0 || from.1 == to.1 {
+                // The bitmap's fast path for these fills the box from `from` to `to`, which
+                // is empty when `to` lies left of or above `from`.
+                let (a, b) = if (from.0, from.1) <= (to.0, to.1) { (from, to) } else { (to, from) };
+                return self.0.draw_line(a, b, style);
+            }
+            // A slanted one-pixel line: plotters' rasteriser spreads it over two rows of partly
+            // blended pixels, which reads as dots along an outline of many short segments;
+            // set whole pixels with Bresenham's algorithm instead, within the canvas.
+            let (w, h) = self.0.get_size();
+            let f = |p: BackendCoord| (f64::from(p.0), f64::from(p.1));
+            let Some((a, b)) =
+                super::clip_segment(f(from), f(to), (0.0, f64::from(w) - 1.0), (0.0, f64::from(h) - 1.0))
+            else {
+                return Ok(());
+            };
+            let ((mut x, mut y), end) =
+                ((a.0.round() as i32, a.1.round() as i32), (b.0.round() as i32, b.1.round() as i32));
+            let (dx, dy) = ((end.0 - x).abs(), -(end.1 - y).abs());
+            let (sx, sy) = ((end.0 - x).signum(), (end.1 - y).signum());
+            let mut err = dx + dy;
+            loop {
+                self.0.draw_pixel((x, y), color)?;
+                if (x, y) == end {
+                    return Ok(());
+                }
+                let e2 = 2 * err;
+                if e2 >= dy {
+                    err += dy;
+                    x += sx;
+                }
+                if e2 <= dx {
+                    err += dx;
+                    y += sy;
+                }
+            }
         }
         fn draw_rect<S: BackendStyle>(
             &mut self,
@@ -1014,7 +1297,17 @@ mod canvas {
             path: I,
             style: &S,
         ) -> CanvasResult {
-            self.0.draw_path(path, style)
+            if style.stroke_width() != 1 {
+                return self.0.draw_path(path, style);
+            }
+            // One-pixel paths segment by segment through this backend's `draw_line`.
+            let mut points = path.into_iter();
+            let Some(mut from) = points.next() else { return Ok(()) };
+            for to in points {
+                self.draw_line(from, to, style)?;
+                from = to;
+            }
+            Ok(())
         }
         fn draw_circle<S: BackendStyle>(
             &mut self,
@@ -1082,7 +1375,18 @@ mod canvas {
         }
     }
 
-    fn font_error<E: std::error::Error + Send + Sync>() -> DrawingErrorKind<E> {
+    impl super::Surface for Canvas<'_> {
+        fn draw_raster(
+            &mut self,
+            upper_left: BackendCoord,
+            size: (u32, u32),
+            raster: &super::Raster,
+        ) -> CanvasResult {
+            self.0.blit_bitmap(upper_left, size, &raster.resample(size.0, size.1))
+        }
+    }
+
+    pub(super) fn font_error<E: std::error::Error + Send + Sync>() -> DrawingErrorKind<E> {
         DrawingErrorKind::FontError(Box::new(io::Error::other(
             "the bundled font DejaVuSans.ttf could not be parsed",
         )))
@@ -1126,6 +1430,7 @@ mod tests {
             colorbar_label: "|u| / v_tip",
             x_label: "x",
             y_label: "z",
+            outlines: &[],
         }
     }
 
@@ -1381,5 +1686,270 @@ mod tests {
         assert_eq!(clip_segment((0.2, 0.2), (0.4, 0.6), b.0, b.1), Some(((0.2, 0.2), (0.4, 0.6))));
         assert_eq!(clip_segment((2.0, 2.0), (3.0, 3.0), b.0, b.1), None);
         assert_eq!(clip_segment((-1.0, 2.0), (-1.0, -2.0), b.0, b.1), None);
+    }
+
+    // ---- SVG ------------------------------------------------------------------------------
+
+    /// Checks that `doc` is well-formed XML as this module writes it: a prolog, one root
+    /// element, balanced tags, quoted attributes, and `&` only in the five predefined
+    /// entities. Returns the number of elements.
+    fn assert_well_formed(doc: &str) -> usize {
+        let entity_ok = |t: &str| {
+            t.match_indices('&').all(|(k, _)| {
+                ["&amp;", "&lt;", "&gt;", "&quot;", "&apos;"].iter().any(|e| t[k..].starts_with(e))
+            })
+        };
+        let rest = doc.strip_prefix("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n").expect("prolog");
+        let (mut stack, mut elements, mut roots) = (Vec::<String>::new(), 0, 0);
+        let mut rest = rest;
+        while let Some(open) = rest.find('<') {
+            let text = &rest[..open];
+            assert!(entity_ok(text), "bad text {text:?}");
+            assert!(!stack.is_empty() || text.trim().is_empty(), "text outside the root: {text:?}");
+            let close = rest[open..].find('>').expect("unclosed tag") + open;
+            let tag = &rest[open + 1..close];
+            rest = &rest[close + 1..];
+            if let Some(name) = tag.strip_prefix('/') {
+                assert_eq!(stack.pop().as_deref(), Some(name), "mismatched </{name}>");
+                continue;
+            }
+            let self_closing = tag.ends_with('/');
+            let body = tag.trim_end_matches('/');
+            let name_end = body.find(char::is_whitespace).unwrap_or(body.len());
+            let name = &body[..name_end];
+            assert!(!name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == ':'));
+            // Attributes: name="value" separated by spaces.
+            let mut attrs = body[name_end..].trim();
+            while !attrs.is_empty() {
+                let eq = attrs.find("=\"").unwrap_or_else(|| panic!("bad attributes in <{tag}>"));
+                let key = &attrs[..eq];
+                assert!(key.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == ':'), "{key:?}");
+                let end = attrs[eq + 2..].find('"').expect("unquoted value") + eq + 2;
+                assert!(entity_ok(&attrs[eq + 2..end]) && !attrs[eq + 2..end].contains('<'));
+                attrs = attrs[end + 1..].trim_start();
+            }
+            elements += 1;
+            if stack.is_empty() {
+                roots += 1;
+            }
+            if !self_closing {
+                stack.push(name.to_string());
+            }
+        }
+        assert!(rest.trim().is_empty() && stack.is_empty(), "unclosed {stack:?}");
+        assert_eq!(roots, 1);
+        elements
+    }
+
+    /// The value of attribute `name` in the element text `el`.
+    fn attr<'a>(el: &'a str, name: &str) -> &'a str {
+        let key = format!(" {name}=\"");
+        let k = el.find(&key).unwrap_or_else(|| panic!("no {name} in {el}")) + key.len();
+        &el[k..k + el[k..].find('"').unwrap()]
+    }
+
+    /// The elements `<name …>` of a document, as their opening tags' text.
+    fn elements<'a>(doc: &'a str, name: &str) -> Vec<&'a str> {
+        let open = format!("<{name} ");
+        doc.match_indices(&open).map(|(k, _)| &doc[k..k + doc[k..].find('>').unwrap()]).collect()
+    }
+
+    /// Decodes a PNG held in memory: (width, height, RGB bytes).
+    fn decode_bytes(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+        let mut reader = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!(info.color_type, png::ColorType::Rgb);
+        buf.truncate(info.buffer_size());
+        (info.width, info.height, buf)
+    }
+
+    /// The embedded image of an `<image>` element, decoded.
+    fn embedded(el: &str) -> (u32, u32, Vec<u8>) {
+        use base64::Engine as _;
+        let data = attr(el, "xlink:href").strip_prefix("data:image/png;base64,").expect("a PNG data URI");
+        decode_bytes(&base64::engine::general_purpose::STANDARD.decode(data).unwrap())
+    }
+
+    #[test]
+    fn line_svg_is_well_formed_and_laid_out_as_the_png() {
+        let dir = tempfile::tempdir().unwrap();
+        let (svg_path, png_path) = (dir.path().join("np.svg"), dir.path().join("np.png"));
+        let a: Vec<(f64, f64)> = (0..100).map(|k| (k as f64 * 0.1, 2.0 + (k as f64 * 0.2).sin())).collect();
+        let b: Vec<(f64, f64)> = (0..20).map(|k| (k as f64 * 0.5, 5.0 - 0.1 * k as f64)).collect();
+        let plot = LinePlot {
+            title: "Power <number> & \"ratio\"".into(),
+            x_label: "t N".into(),
+            y_label: "Np = P / (ρ N³ D⁵)".into(),
+            series: vec![
+                Series::new("A < B", a, SeriesStyle::Line),
+                Series::new("B", b, SeriesStyle::LinePoints),
+            ],
+            ..Default::default()
+        };
+        write_line_svg(&svg_path, &plot, 640, 400).unwrap();
+        write_line_png(&png_path, &plot, 640, 400).unwrap();
+        let doc = std::fs::read_to_string(&svg_path).unwrap();
+        let n = assert_well_formed(&doc);
+        assert!(n < 600, "{n} elements");
+        let root = elements(&doc, "svg")[0];
+        assert_eq!((attr(root, "width"), attr(root, "height")), ("640", "400"));
+        assert_eq!(attr(root, "viewBox"), "0 0 640 400");
+        // Text as <text>, escaped, in the bundled font's family.
+        assert!(attr(root, "font-family").starts_with("'DejaVu Sans'"));
+        assert!(doc.contains(">Power &lt;number&gt; &amp; &quot;ratio&quot;</text>"));
+        assert!(doc.contains(">A &lt; B</text>") && doc.contains(">Np = P / (ρ N³ D⁵)</text>"));
+        assert!(doc.contains("transform=\"rotate(-90 "), "the y label reads upwards");
+        // Series in their colours: the line as one polyline, markers as circles.
+        let strokes: Vec<&str> = elements(&doc, "polyline").iter().map(|e| attr(e, "stroke")).collect();
+        assert!(strokes.contains(&"#1f77b4") && strokes.contains(&"#ff7f0e"), "{strokes:?}");
+        assert!(!doc.contains("#2ca02c"));
+        let dots = elements(&doc, "circle").iter().filter(|e| attr(e, "fill") == "#ff7f0e").count();
+        assert_eq!(dots, 20 + 1, "20 markers and the legend's");
+        // One layout: every vertex of the SVG's black lines (axes, ticks) is black in the PNG.
+        let (w, _, rgb) = decode(&png_path);
+        let black: Vec<&str> =
+            elements(&doc, "polyline").into_iter().filter(|e| attr(e, "stroke") == "#000000").collect();
+        assert!(black.len() > 10, "{} black lines", black.len());
+        for e in black {
+            for p in attr(e, "points").split(' ') {
+                let (x, y) = p.split_once(',').unwrap();
+                let px = x.parse::<f64>().unwrap().floor() as u32;
+                let py = y.parse::<f64>().unwrap().floor() as u32;
+                assert!(close(pixel(&rgb, w, px, py), [0, 0, 0], 40), "{e}: PNG pixel ({px}, {py})");
+            }
+        }
+    }
+
+    #[test]
+    fn field_svg_embeds_the_png_map_and_clips_outlines() {
+        let dir = tempfile::tempdir().unwrap();
+        let (svg_path, png_path) = (dir.path().join("f.svg"), dir.path().join("f.png"));
+        let (nx, ny, ppn) = (40usize, 30usize, 3u32);
+        let mut values: Vec<f64> =
+            (0..nx * ny).map(|k| ((k % nx) as f64 / nx as f64 + (k / nx) as f64 / ny as f64) / 2.0).collect();
+        values[5 * nx + 7] = f64::NAN;
+        let outlines = vec![
+            vec![(10.0, 10.0), (20.0, 10.0), (20.0, 20.0), (10.0, 20.0)],
+            vec![(35.0, 5.0), (50.0, 5.0), (50.0, 12.0), (35.0, 12.0)], // beyond x1 = 40
+            vec![(-9.0, -9.0), (-5.0, -9.0), (-5.0, -5.0)],             // wholly outside
+        ];
+        let mut img = field(&values, nx, ny);
+        img.title = "a & b";
+        write_field_png(&png_path, &img, FieldSize::PixelsPerNode(ppn)).unwrap(); // no outlines
+        img.outlines = &outlines;
+        write_field_svg(&svg_path, &img, FieldSize::PixelsPerNode(ppn)).unwrap();
+        let doc = std::fs::read_to_string(&svg_path).unwrap();
+        assert_well_formed(&doc);
+        assert!(!doc.contains("width=\"1\" height=\"1\""), "no element per pixel");
+        let (w, h, rgb) = decode(&png_path);
+        let root = elements(&doc, "svg")[0];
+        assert_eq!(
+            (attr(root, "width"), attr(root, "height")),
+            (w.to_string().as_str(), h.to_string().as_str())
+        );
+
+        // The map and the colour bar: two images, placed as in the PNG, with its pixels.
+        let images = elements(&doc, "image");
+        assert_eq!(images.len(), 2);
+        let (mw, mh) = (nx as u32 * ppn, ny as u32 * ppn);
+        let (left, top) = (FIELD_OUTER + FIELD_LEFT, field_title_height("a & b"));
+        let map = images[0];
+        let at = |k: &str| attr(map, k).parse::<u32>().unwrap();
+        assert_eq!((at("x"), at("y"), at("width"), at("height")), (left, top, mw, mh));
+        let (iw, ih, pixels) = embedded(map);
+        assert_eq!((iw, ih), (mw, mh));
+        // Inside the PNG's frame (a black pixel wide).
+        for py in 1..mh - 1 {
+            for px in 1..mw - 1 {
+                assert_eq!(pixel(&pixels, mw, px, py), pixel(&rgb, w, left + px, top + py), "({px}, {py})");
+            }
+        }
+        let bar = images[1];
+        assert_eq!(attr(bar, "x").parse::<u32>().unwrap(), left + mw + FIELD_GAP);
+        let (bw, bh, bar_pixels) = embedded(bar);
+        assert_eq!((bw, bh), (BAR_WIDTH, mh));
+        assert!(close(pixel(&bar_pixels, bw, 5, 0), viridis(1.0), 2));
+        assert!(close(pixel(&bar_pixels, bw, 5, bh - 1), viridis(0.0), 2));
+
+        // Outlines: white polylines inside the map's pixels (the second one cut at x1, its
+        // part beyond left out and its ring thereby opened in two pieces; the third left out).
+        let white: Vec<&str> =
+            elements(&doc, "polyline").into_iter().filter(|e| attr(e, "stroke") == "#ffffff").collect();
+        assert_eq!(white.len(), 3, "the square, and the cut rectangle in two pieces: {white:?}");
+        let mut max_x = 0.0f64;
+        for e in &white {
+            for p in attr(e, "points").split(' ') {
+                let (x, y) = p.split_once(',').unwrap();
+                let (x, y): (f64, f64) = (x.parse().unwrap(), y.parse().unwrap());
+                assert!(x >= left as f64 && x <= (left + mw) as f64, "{e}");
+                assert!(y >= top as f64 && y <= (top + mh) as f64, "{e}");
+                max_x = max_x.max(x);
+            }
+        }
+        assert!(max_x > (left + mw - 2) as f64, "the clipped outline reaches the map's edge");
+    }
+
+    #[test]
+    fn outlines_are_white_lines_on_the_png_map() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("o.png");
+        let (nx, ny, ppn) = (50usize, 50usize, 4u32);
+        let values = vec![0.0; nx * ny]; // dark everywhere
+        let square = vec![vec![(10.0, 10.0), (30.0, 10.0), (30.0, 30.0), (10.0, 30.0)]];
+        let mut img = field(&values, nx, ny);
+        img.outlines = &square;
+        write_field_png(&path, &img, FieldSize::PixelsPerNode(ppn)).unwrap();
+        let (w, _, rgb) = decode(&path);
+        let (left, top) = (FIELD_OUTER + FIELD_LEFT, field_title_height("ramp"));
+        let mh = ny as u32 * ppn;
+        // Data (x, y) to the pixel holding it.
+        let px = |x: f64, y: f64| (left + (x * ppn as f64) as u32, top + mh - 1 - (y * ppn as f64) as u32);
+        let white =
+            |(x, y): (u32, u32)| (-1i32..=1).any(|d| pixel(&rgb, w, x, (y as i32 + d) as u32) == [255; 3]);
+        let white_x =
+            |(x, y): (u32, u32)| (-1i32..=1).any(|d| pixel(&rgb, w, (x as i32 + d) as u32, y) == [255; 3]);
+        for t in [12.0, 20.0, 28.0] {
+            assert!(white(px(t, 10.0)) && white(px(t, 30.0)), "horizontal edges at {t}");
+            assert!(white_x(px(10.0, t)) && white_x(px(30.0, t)), "vertical edges at {t}");
+        }
+        // Not filled, and nothing elsewhere.
+        for (x, y) in [(20.0, 20.0), (15.0, 25.0), (40.0, 40.0), (5.0, 20.0)] {
+            assert!(close(pixel(&rgb, w, px(x, y).0, px(x, y).1), viridis(0.0), 0), "({x}, {y})");
+        }
+        // Without outlines the map is uniform.
+        img.outlines = &[];
+        write_field_png(&path, &img, FieldSize::PixelsPerNode(ppn)).unwrap();
+        let (_, _, plain) = decode(&path);
+        for t in [12.0, 20.0, 28.0] {
+            let (x, y) = px(t, 10.0);
+            assert_eq!(pixel(&plain, w, x, y), viridis(0.0));
+            assert_eq!(pixel(&plain, w, x, y + 1), viridis(0.0));
+        }
+    }
+
+    #[test]
+    fn svg_input_errors_write_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.svg");
+        let values = vec![0.0; 12];
+        let bad = FieldImage { nx: 5, ..field(&values, 4, 3) };
+        let err = write_field_svg(&path, &bad, FieldSize::PixelsPerNode(2)).unwrap_err();
+        assert!(matches!(err, PlotError::Input { .. }) && err.to_string().contains("12 values"), "{err}");
+        let plot = LinePlot { series: vec![], ..Default::default() };
+        let err = write_line_svg(&path, &plot, 400, 300).unwrap_err();
+        assert!(matches!(err, PlotError::Input { .. }) && err.to_string().contains("no series"), "{err}");
+        assert_empty(dir.path());
+        let missing = dir.path().join("no/dir/f.svg");
+        let plot = LinePlot {
+            series: vec![Series::new("s", vec![(0.0, 0.0), (1.0, 1.0)], SeriesStyle::Line)],
+            ..Default::default()
+        };
+        assert!(matches!(write_line_svg(&missing, &plot, 300, 200), Err(PlotError::Io { .. })));
+    }
+
+    #[test]
+    fn xml_escaping() {
+        assert_eq!(svg::escape_xml("a<b>&\"c'\u{1}\td"), "a&lt;b&gt;&amp;&quot;c&apos; d");
     }
 }

@@ -200,6 +200,7 @@ fn single_phase(kind: &str, scale: f64) -> [f64; 8] {
         colorbar_label: "|u| / v_tip",
         x_label: "x (lattice units)",
         y_label: "z (lattice units)",
+        outlines: &[],
     };
     match slurry::plot::write_field_png(&path, &img, slurry::plot::FieldSize::MapWidth(500)) {
         Ok(()) => eprintln!("  wrote {}", path.display()),
