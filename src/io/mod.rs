@@ -24,6 +24,9 @@ pub mod xdmf;
 pub use atomic::{atomic_write, atomic_write_bytes};
 pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint, BODY_STATE_LEN};
 pub use fields::{write_fields_h5, FieldsError};
-pub use particles::{ParticleFrame, ParticleHistoryWriter, ParticleStatic, ParticlesError};
+pub use particles::{
+    read_particle_history, read_particle_history_from, ParticleFrame, ParticleHistory, ParticleHistoryWriter,
+    ParticleProperties, ParticleStatic, ParticlesError,
+};
 pub use timeseries::{ParticleAggregates, TimeSeriesRow, TimeSeriesWriter};
 pub use xdmf::{write_xdmf, xdmf_text};

@@ -1,0 +1,150 @@
+use std::f64::consts::PI;
+
+use hdf5::types::VarLenUnicode;
+
+use super::*;
+
+const TANK: Tank = Tank { t: 40.0, h: 60.0, tip_speed: 0.1, steps_per_rev: 20.0 };
+
+/// A frame with particles at heights `z` (world), upright, at rest.
+fn frame(step: u64, z: &[f64]) -> ParticleFrame {
+    let n = z.len();
+    ParticleFrame {
+        step,
+        time: step as f64,
+        position: z.iter().map(|&z| [20.0, 20.0, z]).collect(),
+        quaternion: vec![[1.0, 0.0, 0.0, 0.0]; n],
+        velocity: vec![[0.0, 0.0, 0.01]; n],
+        angular_velocity: vec![[0.0; 3]; n],
+        force: vec![[0.0; 3]; n],
+        torque: vec![[0.0; 3]; n],
+    }
+}
+
+#[test]
+fn mean_height_counts_from_the_floor_in_revolutions() {
+    // Centres 0.25 H and 0.75 H above the floor z = −0.5.
+    let f = [frame(0, &[14.5, 44.5]), frame(30, &[-0.5, -0.5])];
+    let m = mean_height(&f, &TANK);
+    assert_eq!(m, vec![(0.0, 0.5), (1.5, 0.0)]);
+    assert!(mean_height(&[frame(5, &[])], &TANK)[0].1.is_nan());
+}
+
+#[test]
+fn window_keeps_the_last_revolutions_including_the_boundary() {
+    // Steps 0, 10, …, 100 at 20 steps per revolution: revolutions 0, 0.5, …, 5.
+    let frames: Vec<ParticleFrame> = (0..=10).map(|k| frame(10 * k, &[1.0])).collect();
+    let w = window(&frames, &TANK, 2.0);
+    assert_eq!(w.iter().map(|f| f.step).collect::<Vec<_>>(), vec![60, 70, 80, 90, 100]);
+    assert_eq!(window(&frames, &TANK, 100.0).len(), 11);
+    assert_eq!(window(&frames, &TANK, 0.0).len(), 1);
+    assert!(window(&[], &TANK, 2.0).is_empty());
+}
+
+#[test]
+fn power_averages_over_the_last_revolutions() {
+    // 0.5 revolutions apart over 50 revolutions; the last 30 (k ≥ 40: 61 samples) have
+    // Po_f = 2 and Po_c = 0.5 ± 0.1 alternating (31 plus, 30 minus); before, Po_f = 100.
+    let series: Vec<(f64, f64, f64)> = (0..=100)
+        .map(|k| {
+            (
+                0.5 * k as f64,
+                if k >= 40 { 2.0 } else { 100.0 },
+                0.5 + 0.1 * if k % 2 == 0 { 1.0 } else { -1.0 },
+            )
+        })
+        .collect();
+    let p = power_averages(&series, 30.0).unwrap();
+    assert_eq!((p.samples, p.from_rev, p.to_rev, p.covered), (61, 20.0, 50.0, true));
+    let solids = 0.5 + 0.1 / 61.0;
+    assert!((p.po_fluid - 2.0).abs() < 1e-14);
+    assert!((p.po_solids - solids).abs() < 1e-14);
+    assert!((p.po - (2.0 + solids)).abs() < 1e-14);
+    let mean = 2.0 + solids;
+    let std = ((31.0 * (2.6 - mean).powi(2) + 30.0 * (2.4 - mean).powi(2)) / 61.0).sqrt();
+    assert!((p.po_std - std).abs() < 1e-14, "{} vs {std}", p.po_std);
+    let long = power_averages(&series, 60.0).unwrap();
+    assert_eq!((long.samples, long.from_rev, long.covered), (101, 0.0, false));
+    assert!(matches!(power_averages(&[], 30.0), Err(StatsError::Empty(_))));
+}
+
+#[test]
+fn steady_state_fits_the_window_and_names_what_failed() {
+    // value = 0.3 + 1e-4 rev over 100 revolutions, but 5.0 before revolution 70 (outside the
+    // 20-revolution window, so it must not matter).
+    let series: Vec<(f64, f64)> =
+        (0..=200).map(|k| 0.5 * k as f64).map(|r| (r, if r < 70.0 { 5.0 } else { 0.3 + 1e-4 * r })).collect();
+    let t = steady_state(&series, 20.0, 0.01);
+    assert!((t.slope_per_rev - 1e-4).abs() < 1e-12, "{}", t.slope_per_rev);
+    assert!((t.drift - 2e-3).abs() < 1e-10);
+    assert_eq!((t.samples, t.window_revs_available), (41, 20.0));
+    assert!(t.steady, "{}", t.reason);
+    let tight = steady_state(&series, 20.0, 1e-3);
+    assert!(!tight.steady && tight.reason.contains("exceeds"), "{}", tight.reason);
+    let short = steady_state(&series[180..], 20.0, 0.01);
+    assert!(!short.steady && short.reason.contains("spans 10.000"), "{}", short.reason);
+    assert_eq!(short.window_revs_available, 10.0);
+    let one = steady_state(&series[200..], 20.0, 0.01);
+    assert!(
+        !one.steady && one.slope_per_rev.is_nan() && one.reason.contains("fewer than two"),
+        "{}",
+        one.reason
+    );
+    assert!(!steady_state(&[], 20.0, 0.01).steady);
+}
+
+fn cylinder(d: f64, l: f64) -> ParticleProperties {
+    let volume = 0.25 * PI * d * d * l;
+    ParticleProperties {
+        shape: "cylinder".into(),
+        diameter: d,
+        length: l,
+        density: 2.0,
+        volume,
+        mass: 2.0 * volume,
+        motion: "free".into(),
+    }
+}
+
+#[test]
+fn stats_compute_and_write_round_trip() {
+    // 31 frames over 15 revolutions (every 10 steps), two upright cylinders rising slowly.
+    let statics = [cylinder(4.0, 8.0), cylinder(4.0, 8.0)];
+    let frames: Vec<ParticleFrame> =
+        (0..=30).map(|k| frame(10 * k, &[10.0 + 0.01 * k as f64, 30.0])).collect();
+    let power: Vec<(f64, f64, f64)> = (0..=30).map(|k| (0.5 * k as f64, 2.0, 0.4)).collect();
+    let mut options = StatsOptions::paper(4.0);
+    options.steady_window_revs = 10.0;
+    let stats = Stats::compute(&frames, &statics, &TANK, &options, &power).unwrap();
+    assert_eq!((stats.profile_frames, stats.profile_from_rev, stats.profile_to_rev), (21, 5.0, 15.0));
+    assert_eq!(stats.volume_fraction.value.len(), 60);
+    assert!(stats.steady.steady, "{}", stats.steady.reason);
+    assert_eq!(stats.orientation_mobile.samples, 21, "only the particle at 0.5 H is mobile");
+    assert!((stats.power.as_ref().unwrap().po - 2.4).abs() < 1e-14);
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("stats.h5");
+    write_stats_h5(&path, &stats).unwrap();
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "temporary file left");
+    let f = hdf5::File::open(&path).unwrap();
+    let read = |name: &str| f.dataset(name).unwrap().read_raw::<f64>().unwrap();
+    assert_eq!(read("mean_height/value"), stats.mean_height.iter().map(|m| m.1).collect::<Vec<_>>());
+    assert_eq!(read("volume_fraction/value"), stats.volume_fraction.value);
+    assert_eq!(read("kinetic_energy/linear"), stats.kinetic_linear.value);
+    assert_eq!(read("orientation/mobile"), stats.orientation_mobile.pdf);
+    assert_eq!(read("power/po_solids"), vec![0.4; 31]);
+    for name in ["volume_fraction/value", "orientation/phi", "power/rev", "mean_height/rev"] {
+        let d = f.dataset(name).unwrap();
+        for a in ["units", "description"] {
+            let s: VarLenUnicode = d.attr(a).unwrap().read_scalar().unwrap();
+            assert!(!s.as_str().is_empty(), "{name}: {a}");
+        }
+    }
+    let g = f.group("power").unwrap();
+    assert!((g.attr("po").unwrap().read_scalar::<f64>().unwrap() - 2.4).abs() < 1e-14);
+    let g = f.group("mean_height").unwrap();
+    assert_eq!(g.attr("steady").unwrap().read_scalar::<u64>().unwrap(), 1);
+    let reason: VarLenUnicode = g.attr("reason").unwrap().read_scalar().unwrap();
+    assert_eq!(reason.as_str(), stats.steady.reason);
+    assert_eq!(f.attr("particles").unwrap().read_scalar::<u64>().unwrap(), 2);
+}
