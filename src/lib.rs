@@ -17,7 +17,11 @@
 //! - [`case`]: case files (TOML) and their validation;
 //! - [`io`]: HDF5/XDMF fields, CSV time series, atomic writes;
 //! - [`run`]: driving a case from start to output;
-//! - [`plot`]: PNG figures (field images with a colour bar, x–y line plots) with a bundled font.
+//! - [`plot`]: PNG and SVG figures (field images with a colour bar, x–y line plots) with a
+//!   bundled font;
+//! - [`stats`]: the paper's particle statistics (mean height, solids volume fraction,
+//!   kinetic energy and orientation profiles, power averages, steady-state test);
+//! - [`reproduce`]: the paper's six stirred cases, scaled, from bed to report.
 #![warn(missing_docs)]
 
 pub mod bench;
@@ -29,7 +33,9 @@ pub mod io;
 pub mod lattice;
 pub mod lbm;
 pub mod plot;
+pub mod reproduce;
 pub mod rigid;
 pub mod run;
 pub mod settle;
+pub mod stats;
 pub mod util;

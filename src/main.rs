@@ -4,6 +4,7 @@
 //! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume]
 //! slurry settle CASE.toml --out DIR [--speed V] [--check-every N] [--min-steps N] [--max-steps N]
 //! slurry check CASE.toml
+//! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--quick] [--out DIR] [--resume]
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! ```
 //!
@@ -43,6 +44,44 @@ enum Command {
     Check(CheckArgs),
     /// Measure the fused kernel's throughput (MLUPS) on periodic boxes.
     Bench(BenchArgs),
+    /// Reproduce one of the paper's stirred cases (or all six): bed, run, statistics, figures, report.
+    Reproduce(ReproduceArgs),
+}
+
+/// `slurry reproduce`.
+#[derive(Args, Debug)]
+struct ReproduceArgs {
+    /// The case: disk-ld1, disk-ld2, disk-ld4, pbt-ld1, pbt-ld2 or pbt-ld4.
+    #[arg(required_unless_present = "all", conflicts_with = "all")]
+    case: Option<String>,
+    /// All six cases, one after the other.
+    #[arg(long)]
+    all: bool,
+    /// Scale s of the system (1: the paper's 251 × 251 × 240 with d = 12; 0.5: d = 6);
+    /// default 0.25 (d = 3; the smallest at which the random placement fits the particles).
+    #[arg(long)]
+    scale: Option<f64>,
+    /// Impeller revolutions after the ramp; default 4 (about 30 min on 2 cores), or 0.25 with --quick.
+    #[arg(long)]
+    revolutions: Option<f64>,
+    /// A short smoke-test run (scale 0.25, 0.25 revolutions after the ramp): about 8 minutes on 2 cores.
+    #[arg(long)]
+    quick: bool,
+    /// Output directory (a sub-directory per case with --all); default target/reproduce/CASE.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Cache of settled beds; default target/reproduce/cache.
+    #[arg(long, value_name = "DIR")]
+    cache: Option<PathBuf>,
+    /// Continue an interrupted run from its last checkpoint (bitwise identical result).
+    #[arg(long)]
+    resume: bool,
+    /// Number of worker threads (default: all cores, or RAYON_NUM_THREADS).
+    #[arg(long, value_name = "N")]
+    threads: Option<NonZeroUsize>,
+    /// No progress output.
+    #[arg(long)]
+    quiet: bool,
 }
 
 /// `slurry bench`.
@@ -138,6 +177,7 @@ fn main() -> ExitCode {
         Command::Settle(a) => cmd_settle(a),
         Command::Check(a) => cmd_check(a),
         Command::Bench(a) => cmd_bench(a),
+        Command::Reproduce(a) => cmd_reproduce(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -228,6 +268,76 @@ fn cmd_settle(a: SettleArgs) -> anyhow::Result<()> {
             "the stopping rule (mean speed < {:e}) was not met within {} steps",
             a.speed,
             a.max_steps
+        );
+    }
+    Ok(())
+}
+
+fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
+    use slurry::reproduce::{self, ReproduceOptions};
+    let names: Vec<String> = if a.all {
+        reproduce::CASES.iter().map(|s| (*s).to_string()).collect()
+    } else {
+        let name = a.case.clone().unwrap_or_default();
+        reproduce::paper_case(&name).map_err(|e| BadInput(e.to_string()))?;
+        vec![name]
+    };
+    let scale = a.scale.unwrap_or(if a.quick { reproduce::QUICK_SCALE } else { reproduce::DEFAULT_SCALE });
+    let revolutions = a.revolutions.unwrap_or(if a.quick {
+        reproduce::QUICK_REVOLUTIONS
+    } else {
+        reproduce::DEFAULT_REVOLUTIONS
+    });
+    if !(scale.is_finite() && (0.1..=1.0).contains(&scale)) {
+        return Err(BadInput(format!("--scale {scale}: allowed 0.1 ≤ s ≤ 1")).into());
+    }
+    if !(revolutions.is_finite() && revolutions > 0.0) {
+        return Err(BadInput(format!("--revolutions {revolutions}: must be finite and > 0")).into());
+    }
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = a.threads {
+        builder = builder.num_threads(n.get());
+    }
+    let pool =
+        builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
+    let root = PathBuf::from("target").join("reproduce");
+    let cache = a.cache.clone().unwrap_or_else(|| root.join("cache"));
+    if !a.quiet {
+        eprintln!(
+            "{}",
+            reproduce::announce(
+                &names,
+                scale,
+                revolutions,
+                a.quick,
+                a.scale.is_none() && a.revolutions.is_none()
+            )
+        );
+    }
+    for name in &names {
+        let out = match (&a.out, a.all) {
+            (Some(o), true) => o.join(name),
+            (Some(o), false) => o.clone(),
+            (None, _) => root.join(name),
+        };
+        let opts = ReproduceOptions {
+            scale,
+            revolutions,
+            out: out.clone(),
+            cache: cache.clone(),
+            resume: a.resume,
+            quiet: a.quiet,
+            bed: Default::default(),
+        };
+        let s = pool
+            .install(|| reproduce::reproduce(name, &opts))
+            .with_context(|| format!("reproduce {name} failed"))?;
+        eprintln!(
+            "{name}: done in {:.0} s ({} steps, {:.1} MLUPS); report in {}",
+            s.wall_time_s,
+            s.run.steps,
+            s.run.mlups,
+            s.report.display()
         );
     }
     Ok(())

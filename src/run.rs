@@ -111,6 +111,9 @@ pub struct RunSummary {
     pub markers: usize,
     /// Number of the impeller's surface markers (0 without one).
     pub impeller_markers: usize,
+    /// The checkpoint's step when this session resumed a run (the stepping time and MLUPS
+    /// are then this session's).
+    pub resumed_from: Option<u64>,
 }
 
 /// The run stopped for numerical trouble. Its Display is the diagnosis.
@@ -193,6 +196,22 @@ impl<T: Real + Planes> Solver<T> {
         let Solver::Coupled(c) = self else { return None };
         (n > 0).then(|| particle_frame(c, n))
     }
+}
+
+/// The progress message of an output step: revolutions, `⟨z_p⟩/H` and `Po` when the run
+/// has an impeller and particles (the floor is at `z = −½`, `h = n_z`).
+fn progress_status(t: Option<&ImpellerTorques>, p: Option<&ParticleAggregates>, h: f64) -> String {
+    let mut s = String::new();
+    if let Some(t) = t {
+        s.push_str(&format!("rev {:.2}, ", t.angle / std::f64::consts::TAU));
+    }
+    if let Some(p) = p {
+        s.push_str(&format!("<z_p>/H {:.3}, ", (p.mean_z + 0.5) / h));
+    }
+    if let Some(t) = t {
+        s.push_str(&format!("Po {:.2} (fluid {:.2}), ", t.po, t.po_fluid));
+    }
+    s
 }
 
 /// The impeller's torques and power numbers from the last step (body `index` of `c`).
@@ -382,6 +401,11 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let mut initial_mass = f64::NAN;
     let mut block_mlups = 0.0;
     let resumed_at = opts.resume.then(|| solver.fluid().time());
+    // Progress: the bar's message, or (stderr not a terminal) a line every 30 s.
+    let log_lines = !opts.quiet && !std::io::stderr().is_terminal();
+    let mut last_log = Instant::now();
+    let mut status = String::new();
+    let (first_step, h) = (solver.fluid().time(), grid.nz as f64);
 
     loop {
         let fluid = solver.fluid();
@@ -406,6 +430,8 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     (Solver::Coupled(c), Some(s)) => Some(impeller_torques(c, n_particles, s)),
                     _ => None,
                 };
+                let particles = frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity));
+                status = progress_status(torques.as_ref(), particles.as_ref(), h);
                 ts.append(&TimeSeriesRow {
                     step,
                     time: step as f64,
@@ -413,7 +439,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     momentum: fluid.total_momentum(),
                     max_mach: health.max_mach,
                     mlups: block_mlups,
-                    particles: frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity)),
+                    particles,
                     impeller: torques,
                 })
                 .with_context(|| format!("cannot write {}", ts_path.display()))?;
@@ -460,8 +486,20 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         let dt = t0.elapsed();
         step_time += dt;
         block_mlups = nodes * block as f64 / dt.as_secs_f64().max(1e-9) / 1e6;
-        pb.set_message(format!("{block_mlups:.1} MLUPS"));
-        pb.set_position(solver.fluid().time());
+        pb.set_message(format!("{status}{block_mlups:.1} MLUPS"));
+        let now_step = solver.fluid().time();
+        pb.set_position(now_step);
+        if log_lines && (last_log.elapsed().as_secs_f64() >= 30.0 || now_step >= total) {
+            last_log = Instant::now();
+            let done = (now_step - first_step) as f64;
+            let left = step_time.as_secs_f64() / done.max(1.0) * (total - now_step) as f64;
+            eprintln!(
+                "step {now_step}/{total} ({:.0} %), {status}{block_mlups:.1} MLUPS, {:.0} s elapsed, about {:.0} s left",
+                100.0 * now_step as f64 / total.max(1) as f64,
+                start.elapsed().as_secs_f64(),
+                left
+            );
+        }
     }
     pb.finish_and_clear();
     let fluid = solver.fluid();
@@ -485,7 +523,8 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         threads: rayon::current_num_threads(),
         wall_time_s: start.elapsed().as_secs_f64(),
         step_time_s: step_s,
-        mlups: nodes * fluid.time() as f64 / step_s.max(1e-9) / 1e6,
+        // Over the steps of this session (a resumed run counts from its checkpoint).
+        mlups: if step_s > 0.0 { nodes * (fluid.time() - first_step) as f64 / step_s / 1e6 } else { 0.0 },
         initial_mass,
         final_mass,
         relative_mass_change: (final_mass - initial_mass) / initial_mass,
@@ -495,6 +534,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         particles: inits.len(),
         markers,
         impeller_markers,
+        resumed_from: resumed_at,
     };
     let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
     let sp = out_dir.join(files::SUMMARY);

@@ -6,6 +6,7 @@
 //! - `setup`: installs the system packages the build needs (libhdf5-dev, pkg-config) if missing.
 //! - `ci`: the test command (`.ci/run`): setup, fmt, clippy, tests, verification (quick tier).
 //! - `verify [ARGS...]`: setup, then the verification suite (`slurry-verify ARGS...`).
+//! - `reproduce ARGS...`: setup, then `slurry reproduce ARGS...` in release (the paper's cases).
 //! - `bench [--quick] [--no-peer] [ARGS...]`: kernel MLUPS beside the bandwidth ceiling and the
 //!   lbmpy peer (see `bench.rs`).
 
@@ -22,6 +23,9 @@ usage: cargo xtask <command> [args]
 commands:
   ci               setup, cargo fmt --check, clippy -D warnings, cargo test, verification (quick)
   verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
+  reproduce CASE [--scale S] [--revolutions R] [--quick] [--out DIR] [--resume] [--all]
+                   setup, then the paper's case CASE (pbt-ld2, ...): bed, run, statistics,
+                   figures and report.md (default size: about 30 min on 2 cores)
   setup            install libhdf5-dev and pkg-config with apt-get if missing
   bench [--quick] [--no-peer] [ARGS]
                    fused-kernel MLUPS beside membw.sh and the lbmpy peer; ARGS go to `slurry bench`
@@ -42,6 +46,7 @@ fn main() -> ExitCode {
         Some("ci") => ci(&root),
         Some("verify") => setup().and_then(|()| verify(&root, &rest)),
         Some("setup") => setup(),
+        Some("reproduce") => setup().and_then(|()| reproduce(&root, &rest)),
         Some("bench") => setup().and_then(|()| bench::bench(&root, &rest).map_err(Failed)),
         Some("help" | "--help" | "-h") | None => {
             print!("{HELP}");
@@ -120,6 +125,15 @@ fn verify(root: &Path, args: &[String]) -> Step {
         .args(["run", "--release", "-p", "slurry-verification", "--bin", "slurry-verify", "--"])
         .args(args);
     run("verify", c)
+}
+
+/// `slurry reproduce ARGS` in release.
+fn reproduce(root: &Path, args: &[String]) -> Step {
+    let mut c = cargo();
+    c.current_dir(root)
+        .args(["run", "--release", "-p", "slurry", "--bin", "slurry", "--", "reproduce"])
+        .args(args);
+    run("reproduce", c)
 }
 
 /// Whether `pkg-config` is present and finds hdf5.

@@ -1,0 +1,414 @@
+//! The paper's six stirred cases, from the bed to the report: `slurry reproduce CASE`
+//! (`cargo xtask reproduce CASE`).
+//!
+//! The cases are the folders of `reproduce/` (`disk-ld1` … `pbt-ld4`): each holds the case
+//! file at the paper's scale (`case.toml`, physics.md §1–2) and the paper's values with their
+//! acceptance bands (`paper.toml`); both are compiled into the binary, so the command works
+//! from any directory.
+//!
+//! # Scaling ([`scale_case`])
+//! A run at scale `s` keeps every dimensionless group of the paper and the tip Mach number:
+//! the grid is `round(s · (251, 251, 240))`, lengths (`D`, `d`, `ℓ`, the impeller's set
+//! dimensions) are multiplied by `s`, and with the tip speed `π N D` and `Re = N D²/ν` fixed,
+//! `N → N/s`, `ν → ν s`; the Shields number `N² D²/(g Δρ/ρ d)` then fixes `g → g/s`, and the
+//! ramp (half a revolution) takes `4000 s` steps. The particle count is the paper's (so
+//! `⟨φ⟩ = 0.148` up to the rounding of the grid). The contact parameters of Table 1 and the
+//! marker spacing are in lattice units and stay as they are.
+//!
+//! # Pipeline ([`reproduce`])
+//! 1. **Bed**: the case's seeded random placement in the whole box, settled dry
+//!    ([`crate::settle::dry_bed`]), with no impeller. The bed is cached under
+//!    `CACHE/beds/<case>-<key>/` by a hash of everything it depends on (the scaled case
+//!    without its run settings and impeller, and the settling options), and reused.
+//! 2. **Stirred run**: the bed's particles as explicit particles, the impeller inserted,
+//!    the ramp (half a revolution) and `R` revolutions, by [`crate::run::run_case`]:
+//!    checkpoints every few revolutions (atomic), `--resume` bitwise identical, progress
+//!    with revolutions, `⟨z_p⟩/H`, `Po`, MLUPS and the time left.
+//! 3. **Statistics, figures, report** ([`report`]): from `timeseries.csv`, `particles.h5`
+//!    and `fields.h5`, deterministic, written atomically.
+
+pub mod report;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+
+use crate::case::Case;
+use crate::io::atomic_write_bytes;
+use crate::run::{run_case, RunOptions, RunSummary};
+use crate::settle::{dry_bed, DryBed, DryBedOptions};
+
+/// The paper's cases, in the order of `--all`.
+pub const CASES: [&str; 6] = ["disk-ld1", "disk-ld2", "disk-ld4", "pbt-ld1", "pbt-ld2", "pbt-ld4"];
+
+/// The default scale: `d = 3`, 63 × 63 × 60 nodes, chosen so that the default run of
+/// `pbt-ld2` finishes in about 30 minutes on 2 cores (the contacts of the bed dominate the
+/// step: about 0.3 s per step at this scale).
+pub const DEFAULT_SCALE: f64 = 0.25;
+/// The default number of revolutions after the ramp.
+pub const DEFAULT_REVOLUTIONS: f64 = 4.0;
+/// `--quick`: scale (the default's: at 1/5 the random placement cannot fit the paper's 822
+/// cylinders of `ℓ/d = 2`).
+pub const QUICK_SCALE: f64 = 0.25;
+/// `--quick`: revolutions after the ramp (with the half-revolution ramp: 0.75 revolutions).
+pub const QUICK_REVOLUTIONS: f64 = 0.25;
+/// Output rows (and particle frames) per revolution.
+pub const OUTPUTS_PER_REVOLUTION: f64 = 20.0;
+/// Revolutions between checkpoints.
+pub const CHECKPOINT_REVOLUTIONS: f64 = 0.5;
+
+/// One of the paper's cases: its name, case file and paper values (compiled in).
+#[derive(Clone, Copy, Debug)]
+pub struct PaperCase {
+    /// Folder name under `reproduce/`, e.g. `"pbt-ld2"`.
+    pub name: &'static str,
+    /// `reproduce/<name>/case.toml`: the case at the paper's scale.
+    pub case_toml: &'static str,
+    /// `reproduce/<name>/paper.toml`: the paper's values and acceptance bands.
+    pub paper_toml: &'static str,
+}
+
+macro_rules! paper_case {
+    ($name:literal) => {
+        PaperCase {
+            name: $name,
+            case_toml: include_str!(concat!("../../reproduce/", $name, "/case.toml")),
+            paper_toml: include_str!(concat!("../../reproduce/", $name, "/paper.toml")),
+        }
+    };
+}
+
+/// Every case of [`CASES`].
+pub fn paper_cases() -> [PaperCase; 6] {
+    [
+        paper_case!("disk-ld1"),
+        paper_case!("disk-ld2"),
+        paper_case!("disk-ld4"),
+        paper_case!("pbt-ld1"),
+        paper_case!("pbt-ld2"),
+        paper_case!("pbt-ld4"),
+    ]
+}
+
+/// The case called `name`.
+///
+/// # Errors
+/// An unknown name (the message lists the known ones).
+pub fn paper_case(name: &str) -> anyhow::Result<PaperCase> {
+    paper_cases()
+        .into_iter()
+        .find(|c| c.name == name)
+        .ok_or_else(|| anyhow::anyhow!("unknown case '{name}': the cases are {}", CASES.join(", ")))
+}
+
+impl PaperCase {
+    /// The case at the paper's scale (parsed, not placed: its random particles fill the whole
+    /// box, impeller included, and are settled before the impeller goes in).
+    ///
+    /// # Errors
+    /// A syntax or key error in the compiled-in file (a defect of this repository).
+    pub fn case(&self) -> anyhow::Result<Case> {
+        Case::parse_unchecked(self.case_toml)
+            .map_err(|kind| anyhow::anyhow!("reproduce/{}/case.toml: {kind}", self.name))
+    }
+
+    /// The paper's values and bands.
+    ///
+    /// # Errors
+    /// A syntax or key error in the compiled-in file (a defect of this repository).
+    pub fn paper(&self) -> anyhow::Result<report::PaperValues> {
+        toml::from_str(self.paper_toml).with_context(|| format!("reproduce/{}/paper.toml", self.name))
+    }
+}
+
+/// Scales a case at the paper's scale to scale `s` (module docs). `run` is left as it is.
+///
+/// # Errors
+/// `s` not finite or outside `[0.1, 1]`; a case without `[impeller]`.
+pub fn scale_case(case: &Case, s: f64) -> anyhow::Result<Case> {
+    if !(s.is_finite() && (0.1..=1.0).contains(&s)) {
+        anyhow::bail!("--scale = {s}: allowed 0.1 ≤ s ≤ 1 (1 is the paper's 251 × 251 × 240, 0.5 is d = 6)");
+    }
+    let mut c = case.clone();
+    let n = |v: usize| ((v as f64) * s).round().max(4.0) as usize;
+    c.domain.nx = n(case.domain.nx);
+    c.domain.ny = n(case.domain.ny);
+    c.domain.nz = n(case.domain.nz);
+    c.fluid.nu = Some(case.nu() * s);
+    c.fluid.tau = None;
+    c.gravity = case.gravity.map(|g| g.map(|x| x / s));
+    for r in &mut c.random_particles {
+        r.diameter *= s;
+        r.length = r.length.map(|l| l * s);
+        r.region = r.region.map(|reg| reg.map(|p| p.map(|x| (x + 0.5) * s - 0.5)));
+    }
+    for p in &mut c.particles {
+        p.diameter *= s;
+        p.length = p.length.map(|l| l * s);
+        p.position = p.position.map(|x| (x + 0.5) * s - 0.5);
+    }
+    let imp = c.impeller.as_mut().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
+    imp.diameter *= s;
+    imp.speed /= s;
+    imp.ramp_steps = ((imp.ramp_steps as f64) * s).round() as u64;
+    imp.centre = imp.centre.map(|p| p.map(|x| (x + 0.5) * s - 0.5));
+    for v in [
+        &mut imp.thickness,
+        &mut imp.blade_width,
+        &mut imp.blade_thickness,
+        &mut imp.hub_diameter,
+        &mut imp.hub_height,
+        &mut imp.shaft_diameter,
+    ] {
+        *v = v.map(|x| x * s);
+    }
+    Ok(c)
+}
+
+/// Options of [`reproduce`].
+#[derive(Clone, Debug)]
+pub struct ReproduceOptions {
+    /// Scale `s` (1: the paper).
+    pub scale: f64,
+    /// Revolutions after the ramp.
+    pub revolutions: f64,
+    /// Output directory of this case.
+    pub out: PathBuf,
+    /// Cache of settled beds (shared by runs).
+    pub cache: PathBuf,
+    /// Continue an interrupted run from its last checkpoint.
+    pub resume: bool,
+    /// No progress output.
+    pub quiet: bool,
+    /// Dry settling of the bed.
+    pub bed: DryBedOptions,
+}
+
+/// The stirred run's settings for a scaled case (derived from the impeller).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Schedule {
+    /// Steps per revolution `1/N`.
+    pub steps_per_revolution: f64,
+    /// Steps of the ramp.
+    pub ramp_steps: u64,
+    /// Total steps (ramp and revolutions).
+    pub steps: u64,
+    /// Steps between outputs (even).
+    pub output_every: u64,
+    /// Steps between checkpoints (a multiple of `output_every`).
+    pub checkpoint_every: u64,
+}
+
+/// The schedule of `revolutions` after the ramp for the scaled case `c`.
+///
+/// # Errors
+/// A case without `[impeller]`, or `revolutions` not finite and positive.
+pub fn schedule(c: &Case, revolutions: f64) -> anyhow::Result<Schedule> {
+    if !(revolutions.is_finite() && revolutions > 0.0) {
+        anyhow::bail!("--revolutions = {revolutions}: must be finite and > 0");
+    }
+    let imp = c.impeller.as_ref().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
+    let spr = 1.0 / imp.speed.abs();
+    // Even: checkpoints need an even step (the AA pattern's state is complete there).
+    let output_every = (((spr / OUTPUTS_PER_REVOLUTION) / 2.0).round() as u64).max(1) * 2;
+    let per_ck = ((CHECKPOINT_REVOLUTIONS * spr / output_every as f64).round() as u64).max(1);
+    let steps_after = (revolutions * spr / output_every as f64).ceil() as u64 * output_every;
+    let ramp = imp.ramp_steps.div_ceil(output_every) * output_every;
+    Ok(Schedule {
+        steps_per_revolution: spr,
+        ramp_steps: imp.ramp_steps,
+        steps: ramp + steps_after,
+        output_every,
+        checkpoint_every: per_ck * output_every,
+    })
+}
+
+/// FNV-1a, 64 bit: a stable hash for cache keys (the same on every platform and run).
+fn fnv1a(text: &str) -> u64 {
+    text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// The cache record of a bed: what it was made from (the hashed text) and the bed.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct BedRecord {
+    /// What the bed was made from.
+    pub inputs: String,
+    /// The bed.
+    #[serde(flatten)]
+    pub bed: DryBed,
+}
+
+/// The bed of the scaled case `c`: from the cache when it holds one made from the same
+/// inputs, else settled ([`dry_bed`]) and stored (atomically). Returns the record and
+/// whether it came from the cache.
+///
+/// # Errors
+/// Settling failed, or the cache cannot be written.
+pub fn bed(
+    name: &str,
+    c: &Case,
+    opts: DryBedOptions,
+    cache: &Path,
+    quiet: bool,
+) -> anyhow::Result<(BedRecord, bool)> {
+    let mut key_case = c.clone();
+    key_case.impeller = None;
+    key_case.run = crate::case::RunSection {
+        steps: 1,
+        output_every: 1,
+        mach_limit: crate::case::default_mach_limit(),
+        checkpoint_every: None,
+    };
+    let inputs = format!(
+        "{}\n# dry bed: gravity x {:?}, terminal speed {:?}, stop below {:?} of it, steps {}..{}\n",
+        toml::to_string(&key_case.normalised()).context("cannot serialise the case")?,
+        opts.gravity_factor,
+        opts.terminal_speed,
+        opts.stop_fraction,
+        opts.min_steps,
+        opts.max_steps
+    );
+    let dir = cache.join("beds").join(format!("{name}-{:016x}", fnv1a(&inputs)));
+    let file = dir.join("bed.json");
+    if let Ok(text) = std::fs::read_to_string(&file) {
+        if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
+            if rec.inputs == inputs {
+                return Ok((rec, true));
+            }
+        }
+    }
+    if !quiet {
+        eprintln!("bed: placing {} particles and settling them dry (no fluid) …", c.particle_count());
+    }
+    let b = dry_bed(&key_case, DryBedOptions { progress_every: if quiet { 0 } else { 250 }, ..opts })?;
+    if !quiet {
+        eprintln!(
+            "bed: {} after {} steps ({:.0} s), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
+            if b.settled { "settled" } else { "NOT settled (step limit)" },
+            b.steps,
+            b.seconds,
+            b.mean_height,
+            b.mean_speed,
+            b.max_speed
+        );
+    }
+    let rec = BedRecord { inputs, bed: b };
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
+    atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
+    Ok((rec, false))
+}
+
+/// The stirred case: the scaled case `c` with the bed's particles in place of its random
+/// placement, and the run settings of `sched`.
+pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
+    let mut s = c.clone();
+    s.random_particles.clear();
+    s.particles.extend(bed.bed.particles.iter().cloned());
+    s.run.steps = sched.steps;
+    s.run.output_every = sched.output_every;
+    s.run.checkpoint_every = Some(sched.checkpoint_every);
+    s
+}
+
+/// What [`reproduce`] did.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReproduceSummary {
+    /// Case name.
+    pub case: String,
+    /// Scale.
+    pub scale: f64,
+    /// Revolutions after the ramp.
+    pub revolutions: f64,
+    /// The run's schedule.
+    pub schedule: Schedule,
+    /// Whether the bed came from the cache.
+    pub bed_cached: bool,
+    /// The stirred run's summary.
+    pub run: RunSummary,
+    /// Wall-clock seconds of the whole pipeline.
+    pub wall_time_s: f64,
+    /// `report.md`.
+    pub report: PathBuf,
+    /// The statistics and the comparison with the paper.
+    pub results: Option<report::Results>,
+}
+
+/// Runs the pipeline (module docs) for the case `name` into `opts.out`.
+///
+/// # Errors
+/// An unknown case, bad options, a failed settling or run, an output failure.
+pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<ReproduceSummary> {
+    let t0 = Instant::now();
+    let pc = paper_case(name)?;
+    let paper = pc.paper()?;
+    let scaled = scale_case(&pc.case()?, opts.scale)?;
+    let sched = schedule(&scaled, opts.revolutions)?;
+    std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
+    let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet)?;
+    if cached && !opts.quiet {
+        eprintln!(
+            "bed: from the cache ({} particles, settled in {} steps)",
+            bed.bed.particles.len(),
+            bed.bed.steps
+        );
+    }
+    let case = stirred_case(&scaled, &bed, &sched);
+    case.validate().map_err(|kind| anyhow::anyhow!("the stirred case of {name} is invalid: {kind}"))?;
+    let run_dir = opts.out.join("run");
+    let run = run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume })?;
+    let mut summary = ReproduceSummary {
+        case: name.to_string(),
+        scale: opts.scale,
+        revolutions: opts.revolutions,
+        schedule: sched,
+        bed_cached: cached,
+        run,
+        wall_time_s: 0.0,
+        report: opts.out.join("report.md"),
+        results: None,
+    };
+    summary.results = Some(report::write_all(name, &case, &paper, &summary, &bed, &opts.out)?);
+    summary.wall_time_s = t0.elapsed().as_secs_f64();
+    let mut json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
+    let _ = writeln!(json);
+    let p = opts.out.join("reproduce.json");
+    atomic_write_bytes(&p, json.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
+    Ok(summary)
+}
+
+#[cfg(test)]
+mod tests;
+
+/// What a `slurry reproduce` invocation is about to do and about how long it takes on 2
+/// cores, printed before it starts.
+pub fn announce(names: &[String], scale: f64, revolutions: f64, quick: bool, default: bool) -> String {
+    let grid = [251.0, 251.0, 240.0].map(|n: f64| (n * scale).round());
+    let per_case = if quick {
+        "about 8 minutes per case on 2 cores (a smoke test: 0.75 revolution in all, far from steady)"
+            .to_string()
+    } else if default {
+        "about 30 minutes per case on 2 cores (the default size; the paper's scale is --scale 1, \
+         which takes days)"
+            .to_string()
+    } else {
+        // Measured cost of the coupled step: about 0.2 µs per node and 0.5 µs per marker on
+        // 2 cores; the markers scale with s², the nodes with s³, the steps per revolution with s.
+        let steps = (revolutions + 0.5) * 4000.0 * scale;
+        let nodes = grid.iter().product::<f64>();
+        let markers = 1.7e6 * scale * scale;
+        let secs = steps * (nodes * 0.012e-6 + markers * 0.5e-6);
+        format!("roughly {:.0} minutes per case on 2 cores (estimate)", secs / 60.0)
+    };
+    format!(
+        "reproduce {}: scale {scale:.3} ({} x {} x {} nodes, d = {:.2}), {revolutions} revolutions after the ramp: {per_case}",
+        names.join(", "),
+        grid[0],
+        grid[1],
+        grid[2],
+        12.0 * scale
+    )
+}

@@ -1,0 +1,75 @@
+use std::f64::consts::PI;
+
+use super::*;
+
+/// Re = N D²/ν, tip speed π N D, Shields N² D²/(g (γ − 1) d) of a scaled case.
+fn groups(c: &Case) -> (f64, f64, f64, f64) {
+    let imp = c.impeller.as_ref().unwrap();
+    let r = &c.random_particles[0];
+    let g = -c.gravity.unwrap()[2];
+    let (n, d) = (imp.speed, imp.diameter);
+    (n * d * d / c.nu(), PI * n * d, n * n * d * d / (g * (r.density - 1.0) * r.diameter), d / r.diameter)
+}
+
+#[test]
+fn scaling_keeps_the_dimensionless_groups() {
+    for pc in paper_cases() {
+        let full = pc.case().unwrap();
+        let (re, tip, shields, ratio) = groups(&full);
+        assert!((re - 87.12).abs() < 0.01, "{}: Re = {re}", pc.name);
+        assert!((tip - 0.10367).abs() < 1e-4, "{}: tip speed {tip}", pc.name);
+        assert!((shields - 9.08).abs() < 0.01, "{}: Shields {shields}", pc.name);
+        for s in [0.25, 0.5, 1.0] {
+            let c = scale_case(&full, s).unwrap();
+            let (re_s, tip_s, sh_s, ratio_s) = groups(&c);
+            for (a, b, what) in
+                [(re, re_s, "Re"), (tip, tip_s, "tip"), (shields, sh_s, "Shields"), (ratio, ratio_s, "D/d")]
+            {
+                assert!((a - b).abs() <= 1e-12 * a.abs(), "{} at s = {s}: {what} {a} → {b}", pc.name);
+            }
+            assert_eq!(c.domain.nx, (251.0 * s).round() as usize);
+            assert_eq!(c.domain.nz, (240.0 * s).round() as usize);
+            assert_eq!(c.random_particles[0].count, full.random_particles[0].count);
+            assert_eq!(c.impeller.as_ref().unwrap().ramp_steps, (4000.0 * s).round() as u64);
+        }
+    }
+}
+
+#[test]
+fn every_case_places_its_particles_at_the_default_scale() {
+    for pc in paper_cases() {
+        let mut c = scale_case(&pc.case().unwrap(), DEFAULT_SCALE).unwrap();
+        c.impeller = None;
+        let n = c.particle_inits().unwrap_or_else(|e| panic!("{}: {e}", pc.name)).len();
+        assert_eq!(n, pc.paper().unwrap().particles, "{}", pc.name);
+    }
+}
+
+#[test]
+fn paper_files_parse_and_name_known_statistics() {
+    for pc in paper_cases() {
+        let p = pc.paper().unwrap();
+        assert_eq!(p.case, pc.name);
+        assert!(!p.values.is_empty());
+        for v in &p.values {
+            assert!(["mean_height", "po_fluid", "po_solids", "po"].contains(&v.key.as_str()), "{}", v.key);
+            assert!(v.min.is_some() || v.max.is_some(), "{}: {} has no band", pc.name, v.key);
+            if let (Some(p), Some(lo), Some(hi)) = (v.paper, v.min, v.max) {
+                assert!(lo <= p && p <= hi, "{}: {} band excludes the paper's value", pc.name, v.key);
+            }
+        }
+    }
+}
+
+#[test]
+fn schedule_is_even_and_covers_the_revolutions() {
+    let c = scale_case(&paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25).unwrap();
+    let s = schedule(&c, 4.0).unwrap();
+    assert_eq!(s.steps_per_revolution, 1000.0);
+    assert_eq!(s.output_every % 2, 0);
+    assert_eq!(s.checkpoint_every % s.output_every, 0);
+    assert!(s.steps >= s.ramp_steps + 4000 && s.steps < s.ramp_steps + 4000 + s.output_every);
+    assert!(schedule(&c, 0.0).is_err());
+    assert!(scale_case(&c, 0.05).is_err());
+    assert!(paper_case("pbt-ld3").unwrap_err().to_string().contains("pbt-ld2"));
+}
