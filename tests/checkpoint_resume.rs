@@ -127,6 +127,11 @@ fn resume_extends_a_run_and_refuses_another_case() {
 }
 
 fn particle_case(steps: u64) -> String {
+    particle_case_with(steps, "", 8.0)
+}
+
+/// The particle case with `extra` appended (e.g. `[contacts]`) and the sphere at height `z`.
+fn particle_case_with(steps: u64, extra: &str, z: f64) -> String {
     format!(
         r#"
 gravity = [0.0, 0.0, -1e-4]
@@ -161,12 +166,13 @@ axis = [1.0, 0.3, 0.8]
 shape = "sphere"
 diameter = 5.0
 density = 1.25
-position = [10.0, 9.0, 8.0]
+position = [10.0, 9.0, {z}]
 
 [run]
 steps = {steps}
 output_every = 50
 checkpoint_every = 100
+{extra}
 "#
     )
 }
@@ -175,9 +181,23 @@ checkpoint_every = 100
 /// bitwise the same particle histories, fields and time series as one uninterrupted run.
 #[test]
 fn particle_run_resumed_equals_uninterrupted() {
+    resumed_equals_uninterrupted(&particle_case(400), &particle_case(250));
+}
+
+/// The same with contacts, the sphere resting on the floor within the contact range: the
+/// contacts' record of the last step's external load (which their sub-cycling extrapolates
+/// with) is part of the checkpoint (without it the first step after a resume differed).
+#[test]
+fn particle_run_with_contacts_resumed_equals_uninterrupted() {
+    let (long, short) =
+        (particle_case_with(400, "[contacts]", 2.8), particle_case_with(250, "[contacts]", 2.8));
+    resumed_equals_uninterrupted(&long, &short);
+}
+
+fn resumed_equals_uninterrupted(long_case: &str, short_case: &str) {
     let tmp = tempfile::tempdir().unwrap();
-    let long = write_case(tmp.path(), "long.toml", &particle_case(400));
-    let short = write_case(tmp.path(), "short.toml", &particle_case(250));
+    let long = write_case(tmp.path(), "long.toml", long_case);
+    let short = write_case(tmp.path(), "short.toml", short_case);
     let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
     let out = run(&long, &a, false);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
