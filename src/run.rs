@@ -149,11 +149,6 @@ fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
     r[17..20].copy_from_slice(&v(&b.change.1));
     r[20..23].copy_from_slice(&v(&b.contact.0));
     r[23..26].copy_from_slice(&v(&b.contact.1));
-    if let Some((f, t)) = &b.external_prev {
-        r[26] = 1.0;
-        r[27..30].copy_from_slice(&v(f));
-        r[30..33].copy_from_slice(&v(t));
-    }
     r
 }
 
@@ -168,7 +163,6 @@ fn body_from_row(r: &[f64; BODY_STATE_LEN]) -> BodyState {
         time: r[13],
         change: (v(14), v(17)),
         contact: (v(20), v(23)),
-        external_prev: (r[26] == 1.0).then(|| (v(27), v(30))),
     }
 }
 

@@ -128,20 +128,6 @@ impl Contacts {
         &self.average
     }
 
-    /// The previous fluid step's external load of each body, as the next
-    /// [`Contacts::advance`] extrapolates with it (`None` before the first step, or after
-    /// [`Contacts::reset_history`]): part of a checkpoint's state.
-    pub fn external_history(&self) -> &[Option<ContactLoad>] {
-        &self.external_prev
-    }
-
-    /// Restores [`Contacts::external_history`] from a checkpoint (a resumed run then
-    /// continues bitwise identically).
-    pub fn set_external_history(&mut self, history: &[Option<ContactLoad>]) {
-        self.external_prev.clear();
-        self.external_prev.extend_from_slice(history);
-    }
-
     /// Forgets the previous fluid step's external loads: the next [`Contacts::advance`] holds
     /// each external load constant over the step (after a discontinuity of the loads).
     pub fn reset_history(&mut self) {

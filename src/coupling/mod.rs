@@ -244,9 +244,6 @@ pub struct BodyState {
     /// The last step's averaged contact force and torque (the next step's shell reaction
     /// predicts with them).
     pub contact: (Vec3, Vec3),
-    /// The contacts' record of the last step's external load (force, torque), which the next
-    /// step's sub-cycling extrapolates with (`None` without contacts or before the first step).
-    pub external_prev: Option<(Vec3, Vec3)>,
 }
 
 /// Everything a coupled run needs to continue bitwise identically: the fluid at an even step
@@ -522,14 +519,12 @@ impl<T: Real + Planes> Coupled<T> {
     pub fn snapshot(&self) -> Result<CoupledState<T>, FluidError> {
         let mut fluid = self.fluid.snapshot()?;
         fluid.force = None;
-        let history = self.contacts.as_ref().map(|c| c.external_history());
         let bodies = self
             .bodies
             .iter()
             .zip(&self.change)
             .zip(&self.loads)
-            .enumerate()
-            .map(|(i, ((b, c), l))| {
+            .map(|((b, c), l)| {
                 let q = b.orientation.into_inner();
                 BodyState {
                     position: b.position,
@@ -539,9 +534,6 @@ impl<T: Real + Planes> Coupled<T> {
                     time: b.time,
                     change: *c,
                     contact: (l.contact_force, l.contact_torque),
-                    external_prev: history
-                        .and_then(|h| h.get(i).copied().flatten())
-                        .map(|e| (e.force, e.torque)),
                 }
             })
             .collect();
@@ -580,16 +572,6 @@ impl<T: Real + Planes> Coupled<T> {
                 .with_velocities(st.velocity, st.angular_velocity);
             b.reset_load_history();
             *c = st.change;
-        }
-        if let Some(c) = self.contacts.as_mut() {
-            let history: Vec<_> = s
-                .bodies
-                .iter()
-                .map(|st| {
-                    st.external_prev.map(|(force, torque)| crate::contact::ContactLoad { force, torque })
-                })
-                .collect();
-            c.set_external_history(&history);
         }
         self.band_prev.runs.clear();
         self.band_prev.start.clear();

@@ -5,7 +5,7 @@
 //! field is on. Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, and `case`: a
 //! fingerprint of the case (its normalised TOML without `run.steps`, so that a run can be
 //! extended) which a resume compares before it restores anything. With particles, `/bodies`
-//! is `f64[P][33]` ([`BODY_STATE_LEN`]).
+//! is `f64[P][26]` ([`BODY_STATE_LEN`]).
 //!
 //! The file is written to a temporary name, synced and renamed: a run killed at any moment
 //! leaves either the previous checkpoint or the new one, never a torn file.
@@ -21,10 +21,9 @@ use crate::lbm::{FluidState, Real};
 
 /// Numbers per body in `/bodies`: position (3), orientation quaternion `w, x, y, z` (4),
 /// velocity (3), angular velocity (3), time (1), the last step's change of velocity (3) and
-/// of angular velocity (3), its averaged contact force (3) and torque (3), and the contacts'
-/// record of the last step's external load: a flag (1 if known, else 0), force (3) and
-/// torque (3) — what `coupling::Coupled::restore` needs.
-pub const BODY_STATE_LEN: usize = 33;
+/// of angular velocity (3), its averaged contact force (3) and torque (3) — what
+/// `coupling::Coupled::restore` needs.
+pub const BODY_STATE_LEN: usize = 26;
 
 /// A checkpoint read back: the state and the case fingerprint it was written with.
 pub struct Checkpoint<T> {
