@@ -47,21 +47,39 @@ fn main() {
     let g = Vec3::new(0.0, 0.0, -2e-3);
     let weight = bodies[0].net_weight(g, 1.0);
     let drag = weight.norm() / 0.05;
+    // A cached bed (positions and orientations as text, one body per line), so that the cost
+    // can be measured again without settling again.
+    let cache = std::env::temp_dir().join(format!("slurry-contact-cost-{n}-{ld}-{scale}.txt"));
     let t0 = Instant::now();
     let mut steps = 0;
-    loop {
-        for b in &mut bodies {
-            let (v, w) = (b.velocity, b.angular_velocity);
-            b.add_force(weight - v * drag);
-            b.add_torque(-w * (drag * d * d / 4.0));
+    if let Ok(text) = std::fs::read_to_string(&cache) {
+        for (b, line) in bodies.iter_mut().zip(text.lines()) {
+            let v: Vec<f64> = line.split_whitespace().map(|x| x.parse().expect("cached bed")).collect();
+            let q = slurry::rigid::Quat::new_unchecked(slurry::rigid::nalgebra::Quaternion::new(
+                v[3], v[4], v[5], v[6],
+            ));
+            *b = b.clone().with_position(Vec3::new(v[0], v[1], v[2])).with_orientation(q);
         }
-        ct.advance(&mut bodies, &markers, 2);
+        println!("bed read from {}", cache.display());
+    }
+    while !cache.exists() {
+        slurry::contact::step_bodies(Some(&mut ct), &mut bodies, &markers, 2, |_, b| {
+            (weight - b.velocity * drag, -b.angular_velocity * (drag * d * d / 4.0))
+        });
         steps += 1;
         let vmax = bodies.iter().map(|b| b.velocity.norm()).fold(0.0, f64::max);
         if steps % 500 == 0 {
             eprintln!("  settling: step {steps}, max speed {vmax:.2e}, {:.0} s", t0.elapsed().as_secs_f64());
         }
         if (steps > 200 && vmax < 1e-3) || steps >= 6000 {
+            let text: String = bodies
+                .iter()
+                .map(|b| {
+                    let (p, q) = (b.position, b.orientation.into_inner());
+                    format!("{:e} {:e} {:e} {:e} {:e} {:e} {:e}\n", p.x, p.y, p.z, q.w, q.i, q.j, q.k)
+                })
+                .collect();
+            std::fs::write(&cache, text).expect("write the bed cache");
             break;
         }
     }
@@ -75,6 +93,10 @@ fn main() {
         b.velocity = Vec3::zeros();
         b.angular_velocity = Vec3::zeros();
     }
+    let skin = std::env::var("SKIN").ok().map(|s| s.parse().expect("SKIN"));
+    if let Some(skin) = skin {
+        ct.set_skin(skin);
+    }
     let mut best = f64::INFINITY;
     for _ in 0..5 {
         let saved = bodies.clone();
@@ -84,6 +106,8 @@ fn main() {
         bodies = saved;
     }
     let st = *ct.stats();
+    let (rebuilds, listed, walls_listed) = ct.list_stats();
+    println!("pair list: {rebuilds} rebuilds, {listed} marker pairs and {walls_listed} wall pairs listed");
     println!(
         "contacts per fluid step ({DEFAULT_SUBSTEPS} sub-steps, {} threads): {:.1} ms; candidate pairs {}, touching pairs {}, \
          marker pairs {}, wall contacts {}",

@@ -312,14 +312,10 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<DryBed> {
     let n_sub = contacts.substeps.max(1);
     let n = bodies.len() as f64;
     while steps < opts.max_steps {
-        for (b, &(w, drag, rot)) in bodies.iter_mut().zip(&loads) {
-            if b.is_free() {
-                let (v, om) = (b.velocity, b.angular_velocity);
-                b.add_force(w - v * drag);
-                b.add_torque(-om * rot);
-            }
-        }
-        ct.advance(&mut bodies, &markers, n_sub);
+        crate::contact::step_bodies(Some(&mut ct), &mut bodies, &markers, n_sub, |b, body| {
+            let (w, drag, rot) = loads[b];
+            (w - body.velocity * drag, -body.angular_velocity * rot)
+        });
         steps += 1;
         vmax = bodies.iter().map(|b| b.velocity.norm()).fold(0.0, f64::max);
         vmean = bodies.iter().map(|b| b.velocity.norm()).sum::<f64>() / n;

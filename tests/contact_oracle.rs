@@ -19,6 +19,10 @@
 //! - **Newton's third law**: `Σ_b F_b + F_walls = 0` with a tolerance of `1e-13 Σ_b |F_b|`
 //!   (each marker pair adds `+f` and `−f` to two body sums, so the total is a sum of ≈ 10³
 //!   round-off terms of relative size 1e-16); there is no tolerance on the physics.
+//! - **the marker-pair list is exact while it is reused**: a list built at one configuration,
+//!   then evaluated after every body has moved (random translation and rotation) by at most
+//!   half the skin, gives the oracle's loads at the new configuration bitwise, without a
+//!   rebuild; a larger move rebuilds it, and the loads are again the oracle's.
 //! - **no allocation in steady state**: the internal buffer capacity does not change between
 //!   two evaluations of the same configuration (one thread).
 //! - **sub-cycling conserves linear momentum** (free bodies, no walls): `|ΔΣ m v|` below
@@ -206,6 +210,50 @@ fn configurations_exercise_the_model() {
     }
     eprintln!("EXERCISE {touching} {walls} {overlap} {pairs}");
     assert!(touching >= 40 && walls >= 10 && overlap >= 5, "{touching} {walls} {overlap} {pairs}");
+}
+
+/// Moves every body of `c` by a random translation and rotation whose largest marker
+/// displacement bound, `|Δc| + r ‖ΔR‖_F` (the list's criterion), is `frac` of `limit`.
+fn jiggle(c: &mut Config, rng: &mut SplitMix64, limit: f64, frac: f64) {
+    for (b, m) in c.bodies.iter_mut().zip(&c.markers) {
+        let r = m.iter().map(|mk| mk.position.norm()).fold(0.0, f64::max);
+        let axis = nalgebra::Unit::new_normalize(random_unit(rng));
+        // ‖R(θ) − I‖_F = 2√2 sin(θ/2) ≤ √2 θ: split the budget evenly.
+        let angle = 0.5 * frac * limit / (r.max(1e-9) * std::f64::consts::SQRT_2);
+        let shift = random_unit(rng) * (0.5 * frac * limit);
+        let q = Quat::from_axis_angle(&axis, angle) * b.orientation;
+        *b = b.clone().with_position(b.position + shift).with_orientation(q);
+    }
+}
+
+#[test]
+fn reused_list_stays_exact_and_rebuilds_when_bodies_move_too_far() {
+    let skin = slurry::contact::DEFAULT_SKIN;
+    let mut exercised = 0;
+    for seed in 0..24u64 {
+        let mut c = config(seed);
+        let params = params_for(seed);
+        let mut ct = Contacts::new(params, c.walls, &c.bodies, &c.markers).unwrap();
+        ct.compute(&c.bodies, &c.markers);
+        assert_eq!(ct.list_stats().0, 1);
+        let mut rng = SplitMix64(seed ^ 0x5eed);
+        // Within half the skin (0.98 of it, leaving room for rounding): reused, exact.
+        jiggle(&mut c, &mut rng, 0.5 * skin, 0.98);
+        let loads = ct.compute(&c.bodies, &c.markers).to_vec();
+        assert_eq!(ct.list_stats().0, 1, "seed {seed}: the list was rebuilt for a move within the skin");
+        let o = brute_force(&params, &c.walls, &c.bodies, &c.markers);
+        assert_eq!(bits(&loads), bits(&o.loads), "seed {seed}: reused list differs from the oracle");
+        assert_eq!(ct.stats().marker_pairs, o.stats.marker_pairs);
+        assert_eq!(ct.stats().wall_contacts, o.stats.wall_contacts);
+        exercised += usize::from(o.stats.marker_pairs > 0);
+        // Beyond it: rebuilt, exact.
+        jiggle(&mut c, &mut rng, 0.5 * skin, 3.0);
+        let loads = ct.compute(&c.bodies, &c.markers).to_vec();
+        assert_eq!(ct.list_stats().0, 2, "seed {seed}: no rebuild after a move beyond the skin");
+        let o = brute_force(&params, &c.walls, &c.bodies, &c.markers);
+        assert_eq!(bits(&loads), bits(&o.loads), "seed {seed}: rebuilt list differs from the oracle");
+    }
+    assert!(exercised >= 12, "only {exercised} configurations kept touching pairs after the move");
 }
 
 /// In one thread (with several, each thread's scratch grows until that thread has met the

@@ -7,9 +7,11 @@ use rayon::prelude::*;
 
 use crate::rigid::{Marker, RigidBody, Vec3};
 
-use super::force::{pair_force, wall_distance, wall_force, Pose, WorldMarker};
+use super::force::Pose;
 use super::grid::{fill, for_cells, Geometry};
+use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
 use super::params::{ContactParamError, ContactParams, Walls};
+use super::patches::Patches;
 
 /// Force and torque (world frame; torque about the body's centre of mass).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -62,6 +64,9 @@ impl Default for ContactStats {
 /// at coordinates of a few hundred) and far below any physical length: pruning never drops a
 /// pair that the exact criterion `|x_j − x_i| < reach` keeps.
 pub(crate) const MARGIN: f64 = 1e-6;
+
+/// Body pairs (or bodies, for the walls) per parallel task of an evaluation.
+const EVAL_CHUNK: usize = 32;
 
 /// The loads of one body pair (or of one body against the walls), summed in a fixed order.
 #[derive(Clone, Copy, Debug)]
@@ -149,344 +154,6 @@ pub(crate) fn accumulate(
     reaction
 }
 
-/// Edge of the cubes that group a body's markers into patches (lattice units): a patch of a
-/// surface holds ≈ 8 markers at spacing 0.7.
-const PATCH_EDGE: f64 = 2.0;
-
-/// Static patches of one body's markers (body frame, built once): the markers binned into
-/// cubes of edge [`PATCH_EDGE`]; every non-empty cube is a patch, with the bounding sphere of
-/// its markers. A query prunes whole patches with one signed-distance evaluation (module
-/// [`super`], "Narrow phase").
-#[derive(Clone, Debug)]
-struct Patches {
-    geo: Geometry,
-    /// Per grid cell: its patch, or `u32::MAX` if empty.
-    cell_patch: Vec<u32>,
-    centre: Vec<Vec3>,
-    radius: Vec<f64>,
-    /// Patch `k` holds the markers `items[start[k]..start[k + 1]]` (increasing index).
-    start: Vec<u32>,
-    items: Vec<u32>,
-    /// Centre and half size of the axis-aligned box of all the body's markers (body frame).
-    box_centre: Vec3,
-    box_half: Vec3,
-}
-
-impl Patches {
-    fn new(markers: &[Marker]) -> Self {
-        let (mut lo, mut hi) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-        for m in markers {
-            lo = lo.inf(&m.position);
-            hi = hi.sup(&m.position);
-        }
-        if markers.is_empty() {
-            (lo, hi) = (Vec3::zeros(), Vec3::zeros());
-        }
-        let geo = Geometry::covering(&lo, &hi, PATCH_EDGE, 8 * markers.len() + 64);
-        let (mut cell_of, mut cell_start, mut items) = (Vec::new(), Vec::new(), Vec::new());
-        fill(
-            geo.len(),
-            markers.len(),
-            |k| geo.clamped_index(&markers[k].position),
-            &mut cell_of,
-            &mut cell_start,
-            &mut items,
-        );
-        let mut p = Self {
-            geo,
-            cell_patch: vec![u32::MAX; geo.len()],
-            centre: Vec::new(),
-            radius: Vec::new(),
-            start: Vec::new(),
-            items,
-            box_centre: (lo + hi) * 0.5,
-            box_half: (hi - lo) * 0.5,
-        };
-        for c in 0..geo.len() {
-            let range = cell_start[c] as usize..cell_start[c + 1] as usize;
-            if range.is_empty() {
-                continue;
-            }
-            let (mut a, mut b) = (Vec3::repeat(f64::INFINITY), Vec3::repeat(f64::NEG_INFINITY));
-            for &k in &p.items[range.clone()] {
-                a = a.inf(&markers[k as usize].position);
-                b = b.sup(&markers[k as usize].position);
-            }
-            let centre = (a + b) * 0.5;
-            let r = p.items[range.clone()]
-                .iter()
-                .map(|&k| (markers[k as usize].position - centre).norm())
-                .fold(0.0, f64::max);
-            p.cell_patch[c] = p.centre.len() as u32;
-            p.centre.push(centre);
-            p.radius.push(r);
-            p.start.push(range.start as u32);
-        }
-        p.start.push(p.items.len() as u32);
-        p
-    }
-
-    /// Calls `f(k)` for every patch `k` whose bounding sphere meets the ball `|x − p| < rho`
-    /// (body frame).
-    #[inline(always)]
-    fn visit(&self, p: &Vec3, rho: f64, mut f: impl FnMut(usize)) {
-        let Some(r) = self.geo.range(p, rho) else { return };
-        let mut test = |k: usize| {
-            let reach = rho + self.radius[k];
-            if (self.centre[k] - p).norm_squared() < reach * reach {
-                f(k);
-            }
-        };
-        let cells = (0..3).map(|a| r[a][1] - r[a][0] + 1).product::<usize>();
-        if cells > self.centre.len() {
-            (0..self.centre.len()).for_each(&mut test);
-        } else {
-            for_cells(&self.geo, r, |c| {
-                let k = self.cell_patch[c];
-                if k != u32::MAX {
-                    test(k as usize);
-                }
-            });
-        }
-    }
-
-    /// Squared distance from `q` (body frame) to the box of the markers: a lower bound of the
-    /// squared distance from `q` to every marker of the body.
-    #[inline(always)]
-    fn box_distance2(&self, q: &Vec3) -> f64 {
-        let e = ((q - self.box_centre).abs() - self.box_half).sup(&Vec3::zeros());
-        e.norm_squared()
-    }
-
-    /// The markers of patch `k`.
-    #[inline(always)]
-    fn markers(&self, k: usize) -> &[u32] {
-        &self.items[self.start[k] as usize..self.start[k + 1] as usize]
-    }
-}
-
-/// An interacting marker pair found by the narrow phase.
-#[derive(Clone, Copy, Debug)]
-struct Active {
-    i: u32,
-    j: u32,
-    f: Vec3,
-    ri: Vec3,
-    rj: Vec3,
-    delta: f64,
-    energy: f64,
-}
-
-/// Per-thread buffers of the narrow phase.
-#[derive(Debug, Default)]
-struct Scratch {
-    a: Vec<WorldMarker>,
-    b: Vec<WorldMarker>,
-    cell_of: Vec<u32>,
-    start: Vec<u32>,
-    items: Vec<u32>,
-    active: Vec<Active>,
-}
-
-impl Scratch {
-    fn capacity(&self) -> usize {
-        self.a.capacity()
-            + self.b.capacity()
-            + self.cell_of.capacity()
-            + self.start.capacity()
-            + self.items.capacity()
-            + self.active.capacity()
-    }
-}
-
-/// What the per-pair and per-body kernels read.
-struct Ctx<'a, M> {
-    p: &'a ContactParams,
-    walls: &'a [(usize, f64, Vec3)],
-    reach: f64,
-    poses: &'a [Pose],
-    radius: &'a [f64],
-    surface_tol: &'a [f64],
-    patches: &'a [Patches],
-    bodies: &'a [RigidBody],
-    markers: &'a [M],
-}
-
-impl<M: AsRef<[Marker]>> Ctx<'_, M> {
-    /// The markers of body `a` that may lie within `reach` of a marker of body `b`, in world
-    /// coordinates (module [`super`], "Narrow phase"): `a`'s patches that meet `b`'s bounding
-    /// sphere grown by `reach`, then the patches and markers within `reach + tol_b` of `b`'s
-    /// surface (`|sd_b|`; `tol_b` the largest `|sd_b|` of `b`'s own markers). Exact pruning: a
-    /// marker within `reach` of one of `b`'s markers is within `reach + tol_b` of `b`'s
-    /// surface, and `|sd_b|` is 1-Lipschitz, so a patch whose centre has
-    /// `|sd_b| ≥ reach + tol_b + radius` holds no such marker.
-    fn collect(&self, a: usize, b: usize, out: &mut Vec<WorldMarker>) {
-        out.clear();
-        let (pa, pb) = (&self.poses[a], &self.poses[b]);
-        let ma = self.markers[a].as_ref();
-        let shape = self.bodies[b].shape();
-        let rho = self.radius[b] + self.reach + MARGIN;
-        let lim = self.reach + self.surface_tol[b] + MARGIN;
-        // Body frame of `a` → body frame of `b`: q = R_bᵀ R_a m + R_bᵀ (x_a − x_b).
-        let rot = pb.rotation.tr_mul(&pa.rotation);
-        let shift = pb.rotation.tr_mul(&(pa.position - pb.position));
-        let centre_b = pa.rotation.tr_mul(&(pb.position - pa.position));
-        let patches = &self.patches[a];
-        let other = &self.patches[b];
-        let near = self.reach + MARGIN;
-        let near2 = near * near;
-        patches.visit(&centre_b, rho, |k| {
-            let q = rot * patches.centre[k] + shift;
-            let r = patches.radius[k];
-            if other.box_distance2(&q) >= (near + r) * (near + r)
-                || shape.signed_distance(&q).abs() >= lim + r
-            {
-                return;
-            }
-            for &i in patches.markers(k) {
-                let m = &ma[i as usize];
-                let q = rot * m.position + shift;
-                if other.box_distance2(&q) < near2 && shape.signed_distance(&q).abs() < lim {
-                    let (r, x) = pa.marker_position(m);
-                    let (n, u) = pa.marker_normal_velocity(m, &r);
-                    out.push(WorldMarker { index: i, r, x, n, u });
-                }
-            }
-        });
-    }
-
-    /// Whether no marker of `a` can come within `reach` of `b`'s markers: `a`'s bounding
-    /// sphere is farther than `reach` from the box of `b`'s markers, or `sd_b` at `a`'s centre
-    /// exceeds `a`'s bounding radius by `reach + tol_b` (1-Lipschitz, as above).
-    fn apart(&self, a: usize, b: usize) -> bool {
-        let (pa, pb) = (&self.poses[a], &self.poses[b]);
-        let c = pb.rotation.tr_mul(&(pa.position - pb.position));
-        let gap = self.radius[a] + self.reach + MARGIN;
-        self.patches[b].box_distance2(&c) >= gap * gap
-            || self.bodies[b].shape().signed_distance(&c) - self.radius[a]
-                >= self.reach + self.surface_tol[b] + MARGIN
-    }
-
-    /// The loads of body pair `(a, b)`, `a < b`.
-    fn pair(&self, a: usize, b: usize, s: &mut Scratch) -> Slot {
-        let Scratch { a: ma, b: mb, cell_of, start, items, active } = s;
-        if self.apart(a, b) || self.apart(b, a) {
-            return Slot::EMPTY;
-        }
-        self.collect(a, b, ma);
-        if ma.is_empty() {
-            return Slot::EMPTY;
-        }
-        self.collect(b, a, mb);
-        if mb.is_empty() {
-            return Slot::EMPTY;
-        }
-        let (mut lo, mut hi) = (mb[0].x, mb[0].x);
-        for m in mb.iter() {
-            lo = lo.inf(&m.x);
-            hi = hi.sup(&m.x);
-        }
-        // Bins of edge ≥ reach: a partner within `reach` is in one of the 27 neighbours.
-        let geo = Geometry::covering(&lo, &hi, self.reach, 4 * mb.len() + 64);
-        fill(geo.len(), mb.len(), |k| geo.clamped_index(&mb[k].x), cell_of, start, items);
-        let reach2 = self.reach * self.reach;
-        active.clear();
-        for mi in ma.iter() {
-            let Some(r) = geo.neighbours(geo.coords(&mi.x)) else { continue };
-            for_cells(&geo, r, |c| {
-                for &k in &items[start[c] as usize..start[c + 1] as usize] {
-                    let mj = &mb[k as usize];
-                    if (mj.x - mi.x).norm_squared() < reach2 {
-                        if let Some(h) = pair_force(self.p, mi, mj) {
-                            active.push(Active {
-                                i: mi.index,
-                                j: mj.index,
-                                f: h.force,
-                                ri: mi.r,
-                                rj: mj.r,
-                                delta: h.delta,
-                                energy: h.elastic_energy(self.p),
-                            });
-                        }
-                    }
-                }
-            });
-        }
-        // The oracle's order: (i, j) lexicographic.
-        active.sort_unstable_by_key(|h| (h.i, h.j));
-        let mut slot = Slot::EMPTY;
-        for h in active.iter() {
-            slot.add_pair(&h.f, &h.ri, &h.rj, h.delta, h.energy);
-        }
-        slot
-    }
-
-    /// The loads of the walls on body `b` (free bodies only): patches within the cutoff of a
-    /// wall (centre distance minus patch radius), their markers against those walls; the hits
-    /// summed in the oracle's order (marker index, then wall order).
-    fn walls_on(&self, b: usize, s: &mut Scratch) -> Slot {
-        let pose = &self.poses[b];
-        let mut slot = Slot::EMPTY;
-        if !pose.free || self.walls.is_empty() {
-            return slot;
-        }
-        let cutoff = self.p.cutoff();
-        let mut near = [false; 6];
-        let mut any = false;
-        for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
-            near[w] = wall_distance(*axis, *plane, nhat, &pose.position) - self.radius[b] < cutoff + MARGIN;
-            any |= near[w];
-        }
-        if !any {
-            return slot;
-        }
-        let ms = self.markers[b].as_ref();
-        let patches = &self.patches[b];
-        let active = &mut s.active;
-        active.clear();
-        for k in 0..patches.centre.len() {
-            let c = pose.position + pose.rotation * patches.centre[k];
-            let mut hit = [false; 6];
-            let mut any = false;
-            for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
-                hit[w] =
-                    near[w] && wall_distance(*axis, *plane, nhat, &c) - patches.radius[k] < cutoff + MARGIN;
-                any |= hit[w];
-            }
-            if !any {
-                continue;
-            }
-            for &i in patches.markers(k) {
-                let m = &ms[i as usize];
-                let (r, x) = pose.marker_position(m);
-                let mut nu: Option<(Vec3, Vec3)> = None;
-                for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
-                    if !hit[w] || wall_distance(*axis, *plane, nhat, &x) >= cutoff {
-                        continue;
-                    }
-                    let (n, u) = *nu.get_or_insert_with(|| pose.marker_normal_velocity(m, &r));
-                    if let Some(h) = wall_force(self.p, *axis, *plane, nhat, &x, &n, &u) {
-                        active.push(Active {
-                            i,
-                            j: w as u32,
-                            f: h.force,
-                            ri: r,
-                            rj: r,
-                            delta: h.delta,
-                            energy: h.elastic_energy(self.p),
-                        });
-                    }
-                }
-            }
-        }
-        active.sort_unstable_by_key(|h| (h.i, h.j));
-        for h in active.iter() {
-            slot.add_wall(&h.f, &h.ri, h.delta, h.energy);
-        }
-        slot
-    }
-}
-
 /// The contact model of Derksen (2020, Table 1) between the surface markers of rigid bodies
 /// and against the box walls (module [`super`]): owns the per-body data computed once (bounding
 /// radii, marker patches) and every buffer of an evaluation, so that a warm evaluation does not
@@ -503,7 +170,8 @@ pub struct Contacts {
     patches: Vec<Patches>,
     big: Vec<bool>,
     small: Vec<u32>,
-    cell_edge: f64,
+    /// The largest bounding radius of the bodies in the cell list.
+    r_small: f64,
     // Per evaluation.
     pub(crate) poses: Vec<Pose>,
     cell_of: Vec<u32>,
@@ -516,6 +184,7 @@ pub struct Contacts {
     wall_reaction: Vec3,
     stats: ContactStats,
     scratch: Vec<Mutex<Scratch>>,
+    list: PairList,
     // Sub-cycling (module `subcycle`).
     pub(crate) external: Vec<ContactLoad>,
     pub(crate) external_prev: Vec<Option<ContactLoad>>,
@@ -562,7 +231,6 @@ impl Contacts {
         let big: Vec<bool> = radius.iter().map(|&r| r > 4.0 * r_med).collect();
         let small: Vec<u32> = (0..radius.len()).filter(|&b| !big[b]).map(|b| b as u32).collect();
         let r_small = small.iter().map(|&b| radius[b as usize]).fold(0.0, f64::max);
-        let cell_edge = 2.0 * r_small + reach + 2.0 * MARGIN;
         let patches = markers.iter().map(|m| Patches::new(m.as_ref())).collect();
         let wall_list = walls.iter().map(|(a, _, p, n)| (a, p, n)).collect();
         let n = bodies.len();
@@ -576,7 +244,7 @@ impl Contacts {
             patches,
             big,
             small,
-            cell_edge,
+            r_small,
             radius,
             poses: Vec::with_capacity(n),
             cell_of: Vec::new(),
@@ -589,6 +257,7 @@ impl Contacts {
             wall_reaction: Vec3::zeros(),
             stats: ContactStats::default(),
             scratch: Vec::new(),
+            list: PairList::new(DEFAULT_SKIN),
             external: Vec::with_capacity(n),
             external_prev: vec![None; n],
             average: vec![ContactLoad::ZERO; n],
@@ -634,9 +303,8 @@ impl Contacts {
     /// Total capacity (elements) of the internal buffers, per-thread scratch included: constant
     /// from one evaluation to the next once warm (no allocation in steady state).
     pub fn buffer_capacity(&self) -> usize {
-        let scratch: usize =
-            self.scratch.iter().map(|s| s.lock().unwrap_or_else(|e| e.into_inner()).capacity()).sum();
-        scratch
+        scratch_capacity(&self.scratch)
+            + self.list.capacity()
             + self.poses.capacity()
             + self.cell_of.capacity()
             + self.cell_start.capacity()
@@ -686,73 +354,102 @@ impl Contacts {
         &self.loads
     }
 
-    /// Evaluates the contacts at `self.poses`.
+    /// Evaluates the contacts at `self.poses`: rebuilds the marker-pair list if a body has
+    /// moved by more than half its skin since the last build (module `list`), places the
+    /// listed markers, then the loads of every listed body pair and of the walls (in parallel),
+    /// accumulated in a fixed order.
     pub(crate) fn evaluate<M: AsRef<[Marker]> + Sync>(&mut self, bodies: &[RigidBody], markers: &[M]) {
         self.stats = ContactStats::default();
-        self.broad_phase();
-        self.stats.candidate_pairs = self.pairs.len();
-        let threads = rayon::current_num_threads().max(1);
-        while self.scratch.len() < threads {
-            // Sized up front for the largest body, so that which thread meets which pair does
-            // not decide when a buffer grows: a body contributes at most all its markers to a
-            // pair, its bins number at most `4 m + 64` (`collect`), and a marker has at most a
-            // handful of partners within `reach` (16 per marker reserved).
-            let m = self.marker_counts.iter().copied().max().unwrap_or(0);
-            self.scratch.push(Mutex::new(Scratch {
-                a: Vec::with_capacity(m),
-                b: Vec::with_capacity(m),
-                cell_of: Vec::with_capacity(m),
-                start: Vec::with_capacity(4 * m + 65),
-                items: Vec::with_capacity(m),
-                active: Vec::with_capacity(16 * m),
-            }));
-        }
-        let ctx = Ctx {
-            p: &self.params,
-            walls: &self.wall_list,
-            reach: self.reach,
-            poses: &self.poses,
-            radius: &self.radius,
-            surface_tol: &self.surface_tol,
-            patches: &self.patches,
-            bodies,
-            markers,
-        };
-        let scratch = &self.scratch;
-        self.slots.clear();
-        self.slots.resize(self.pairs.len(), Slot::EMPTY);
-        if self.reach > 0.0 {
-            self.pairs.par_iter().zip(self.slots.par_iter_mut()).for_each(|(&(a, b), slot)| {
-                let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
-                let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
-                *slot = ctx.pair(a as usize, b as usize, &mut s);
-            });
-        }
-        self.wall_slots.clear();
-        self.wall_slots.resize(bodies.len(), Slot::EMPTY);
-        if self.reach > 0.0 && !self.wall_list.is_empty() {
-            self.wall_slots.par_iter_mut().enumerate().for_each(|(b, slot)| {
-                let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
-                let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
-                *slot = ctx.walls_on(b, &mut s);
-            });
-        }
         self.loads.resize(bodies.len(), ContactLoad::ZERO);
-        self.wall_reaction =
-            accumulate(&self.pairs, &self.slots, &self.wall_slots, &mut self.loads, &mut self.stats);
-    }
-
-    /// Candidate body pairs `(a, b)`, `a < b`, sorted: bounding spheres closer than `reach`
-    /// (`|c_a − c_b| < r_a + r_b + reach`) and not both bodies non-free.
-    fn broad_phase(&mut self) {
-        let poses = &self.poses;
-        let radius = &self.radius;
-        let reach = self.reach + MARGIN;
-        let pairs = &mut self.pairs;
-        pairs.clear();
         if self.reach <= 0.0 {
+            self.loads.fill(ContactLoad::ZERO);
+            self.wall_reaction = Vec3::zeros();
             return;
         }
+        if !self.list.covers(&self.poses, &self.radius) {
+            self.broad_phase(self.reach + self.list.skin());
+            // Scratch sized up front for the largest body, so that which thread meets which
+            // pair does not decide when a buffer grows.
+            let m = self.marker_counts.iter().copied().max().unwrap_or(0);
+            let threads = rayon::current_num_threads().max(1);
+            while self.scratch.len() < threads {
+                self.scratch.push(Mutex::new(Scratch::sized(m)));
+            }
+            let narrow = Narrow {
+                p: &self.params,
+                skin: self.list.skin(),
+                walls: &self.wall_list,
+                range: self.reach + self.list.skin(),
+                wall_range: self.params.cutoff() + 0.5 * self.list.skin(),
+                poses: &self.poses,
+                radius: &self.radius,
+                surface_tol: &self.surface_tol,
+                patches: &self.patches,
+                bodies,
+                markers,
+            };
+            self.list.rebuild(&narrow, &self.pairs, &self.scratch);
+        }
+        let m = self.marker_counts.iter().copied().max().unwrap_or(0);
+        let threads = rayon::current_num_threads().max(1);
+        while self.scratch.len() < threads {
+            self.scratch.push(Mutex::new(Scratch::sized(m)));
+        }
+        let (list, params, poses, scratch) = (&self.list, &self.params, &self.poses, &self.scratch);
+        let reach2 = self.reach * self.reach;
+        self.stats.candidate_pairs = list.pairs.len();
+        self.slots.clear();
+        self.slots.resize(list.pairs.len(), Slot::EMPTY);
+        // Chunks of pairs, one scratch lock each.
+        self.slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| {
+            let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+            let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
+            for (o, slot) in out.iter_mut().enumerate() {
+                *slot = list.pair_slot(c * EVAL_CHUNK + o, poses, markers, params, reach2, &mut s);
+            }
+        });
+        self.wall_slots.clear();
+        self.wall_slots.resize(bodies.len(), Slot::EMPTY);
+        if !self.wall_list.is_empty() {
+            let walls = &self.wall_list;
+            self.wall_slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| {
+                let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+                let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
+                for (o, slot) in out.iter_mut().enumerate() {
+                    let b = c * EVAL_CHUNK + o;
+                    *slot = list.wall_slot(b, &poses[b], markers, params, walls, &mut s);
+                }
+            });
+        }
+        self.wall_reaction =
+            accumulate(&self.list.pairs, &self.slots, &self.wall_slots, &mut self.loads, &mut self.stats);
+    }
+
+    /// Sets the skin of the marker-pair list (module `list`; default [`DEFAULT_SKIN`]) and
+    /// forgets the list. The loads do not depend on it (bitwise), only the cost.
+    ///
+    /// # Panics
+    /// If `skin` is negative or not finite.
+    pub fn set_skin(&mut self, skin: f64) {
+        assert!(skin.is_finite() && skin >= 0.0, "the skin must be finite and non-negative");
+        self.list = PairList::new(skin);
+    }
+
+    /// Rebuilds of the marker-pair list so far, and its current length (marker pairs,
+    /// marker–wall pairs).
+    pub fn list_stats(&self) -> (u64, usize, usize) {
+        let (p, w) = self.list.len();
+        (self.list.rebuilds(), p, w)
+    }
+
+    /// Candidate body pairs `(a, b)`, `a < b`, sorted: bounding spheres closer than `range`
+    /// (`|c_a − c_b| < r_a + r_b + range`) and not both bodies non-free.
+    fn broad_phase(&mut self, range: f64) {
+        let poses = &self.poses;
+        let radius = &self.radius;
+        let reach = range + MARGIN;
+        let pairs = &mut self.pairs;
+        pairs.clear();
         let test = |a: usize, b: usize| {
             let (pa, pb) = (&poses[a], &poses[b]);
             let r = radius[a] + radius[b] + reach;
@@ -765,7 +462,8 @@ impl Contacts {
                 lo = lo.inf(&poses[b as usize].position);
                 hi = hi.sup(&poses[b as usize].position);
             }
-            let geo = Geometry::covering(&lo, &hi, self.cell_edge, 8 * small.len() + 64);
+            let edge = 2.0 * self.r_small + range + 2.0 * MARGIN;
+            let geo = Geometry::covering(&lo, &hi, edge, 8 * small.len() + 64);
             let (start, items) = (&mut self.cell_start, &mut self.cell_items);
             fill(
                 geo.len(),

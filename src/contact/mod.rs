@@ -183,13 +183,17 @@
 mod engine;
 mod force;
 mod grid;
+mod list;
 pub mod oracle;
 mod params;
+mod patches;
 mod subcycle;
 
 pub use engine::{ContactLoad, ContactStats, Contacts};
+pub use list::DEFAULT_SKIN;
 pub use oracle::{brute_force, OracleResult};
 pub use params::{ContactParamError, ContactParams, Walls};
+pub use subcycle::step_bodies;
 
 /// Default number of contact sub-steps per fluid time step (module doc, "Stability analysis"):
 /// every single saturated contact is monotone at `d = 12` (`c h/m_red ≤ 0.73`) and stable at

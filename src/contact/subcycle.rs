@@ -1,10 +1,44 @@
 //! Sub-cycling: advancing the bodies over one fluid time step in `n_sub` contact sub-steps
 //! (module [`super`], "Sub-cycling", for the scheme, its reasons and its stability).
 
-use crate::rigid::{LoadScheme, Marker, RigidBody};
+use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
 
 use super::engine::{ContactLoad, Contacts};
 use super::force::Pose;
+
+/// One time step `Δt = 1` of `bodies` under external loads, with or without contacts: the one
+/// body update that the coupled step, the dry bed and the contact verification share.
+///
+/// Each free body `b` first gets `external(b, body) = (F, T)` (force, torque about its centre,
+/// world frame) in its load accumulators; then, with `contacts`, [`Contacts::advance`]
+/// sub-cycles the step in `n_sub` sub-steps and the contact loads averaged over them are
+/// returned; without, every body steps once ([`RigidBody::step`]) and `None` is returned.
+/// Prescribed bodies follow their motion, fixed bodies stay.
+///
+/// # Panics
+/// As [`Contacts::advance`].
+pub fn step_bodies<'c, M: AsRef<[Marker]> + Sync>(
+    contacts: Option<&'c mut Contacts>,
+    bodies: &mut [RigidBody],
+    markers: &[M],
+    n_sub: usize,
+    mut external: impl FnMut(usize, &RigidBody) -> (Vec3, Vec3),
+) -> Option<&'c [ContactLoad]> {
+    for (b, body) in bodies.iter_mut().enumerate() {
+        if body.is_free() {
+            let (f, t) = external(b, body);
+            body.add_force(f);
+            body.add_torque(t);
+        }
+    }
+    match contacts {
+        Some(c) => Some(c.advance(bodies, markers, n_sub)),
+        None => {
+            bodies.iter_mut().for_each(|b| b.step(1.0));
+            None
+        }
+    }
+}
 
 impl Contacts {
     /// Advances every body over one fluid time step `Δt = 1` in `n_sub` sub-steps of

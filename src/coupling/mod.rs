@@ -90,18 +90,22 @@
 use std::fmt;
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
 use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
-use crate::ibm::{interpolate, spread_into, DeltaKernel, ForceSink, StencilError, Stencils};
-use crate::lattice::{Face, NodeLayout, Run};
+use crate::ibm::{DeltaKernel, StencilError, Stencils};
+use crate::lattice::Face;
 use crate::lbm::kernel::Planes;
-use crate::lbm::{Fluid, FluidError, FluidState, ForceFieldWriter, Real};
-use crate::rigid::{LoadScheme, Marker, Motion, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
+use crate::lbm::{Fluid, FluidError, FluidState, Real};
+use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
 
 mod band;
+mod forcing;
+mod interior;
+mod loads;
+mod markers;
 
-use band::{band_runs, emit_runs, row_spans, Band};
+use band::Band;
+use interior::Moment;
+use loads::shell_inertia;
 
 /// Options of the coupling.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -271,14 +275,17 @@ pub struct StepTimings {
     pub forcing: f64,
     /// 6: the fluid step.
     pub fluid: f64,
-    /// 7–8: loads and body updates.
+    /// 7–8: loads and the external loads of the body update.
     pub bodies: f64,
+    /// 8: the body update itself: contacts and the sub-stepped integration (without contacts,
+    /// one integration step per body).
+    pub contacts: f64,
 }
 
 impl StepTimings {
     /// Total seconds.
     pub fn total(&self) -> f64 {
-        self.geometry + self.interior + self.forcing + self.fluid + self.bodies
+        self.geometry + self.interior + self.forcing + self.fluid + self.bodies + self.contacts
     }
 }
 
@@ -326,33 +333,12 @@ pub struct Coupled<T: Real + Planes> {
     shell: Vec<(f64, Vec3)>,
     /// Per free body, its change of velocity and angular velocity (world) in the last step.
     change: Vec<(Vec3, Vec3)>,
+    /// Per body, its velocity and angular velocity at the start of the step's update.
+    start: Vec<(Vec3, Vec3)>,
     timings: StepTimings,
     contacts: Option<Contacts>,
     contact_substeps: usize,
 }
-
-/// The fluid's force field as a spreading target.
-struct FieldSink<'a, T> {
-    writer: ForceFieldWriter<'a, T>,
-    layout: NodeLayout,
-}
-
-impl<T: Real> ForceSink for FieldSink<'_, T> {
-    fn layout(&self) -> NodeLayout {
-        self.layout
-    }
-
-    #[inline(always)]
-    unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]) {
-        self.writer.add(index, w, f)
-    }
-}
-
-/// A grid-sized buffer written by the tasks of a per-plane loop (disjoint planes).
-struct PlaneShared<V>(*mut V);
-// SAFETY: used only by per-plane tasks that write nodes of their own plane.
-unsafe impl<V> Sync for PlaneShared<V> {}
-unsafe impl<V> Send for PlaneShared<V> {}
 
 impl<T: Real + Planes> Coupled<T> {
     /// Couples `fluid` with `bodies`, turning on the fluid's force field (the coupling owns it
@@ -428,6 +414,7 @@ impl<T: Real + Planes> Coupled<T> {
             loads: vec![BodyLoads::default(); n_bodies],
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
+            start: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
             timings: StepTimings::default(),
             contacts,
             contact_substeps: params.contact_substeps,
@@ -631,186 +618,26 @@ impl<T: Real + Planes> Coupled<T> {
             clock = now;
         };
         let mut tm = self.timings;
-        // 1. Marker positions and velocities (parallel over markers).
-        {
-            let (bodies, markers, offsets, owner) = (&self.bodies, &self.markers, &self.offsets, &self.owner);
-            self.position
-                .par_iter_mut()
-                .zip(self.solid.par_iter_mut())
-                .zip(owner.par_iter())
-                .enumerate()
-                .for_each(|(i, ((x, u), &b))| {
-                    let b = b as usize;
-                    let (xw, _n, uw) = bodies[b].marker_world(&markers[b][i - offsets[b]]);
-                    *x = [xw.x, xw.y, xw.z];
-                    *u = [uw.x, uw.y, uw.z];
-                });
-        }
-        // 2. Stencils and band.
-        let grid = self.fluid.grid();
-        self.stencils.build(grid, self.periodic, &self.position)?;
-        let (periodic, hw) = (self.periodic, self.band_half_width);
-        self.band
-            .per_body
-            .par_iter_mut()
-            .zip(self.bodies.par_iter())
-            .for_each(|(out, body)| band_runs(body, grid, periodic, hw, out));
-        self.band.bucket(grid.nz);
+        self.place_markers(); // 1
+        self.build_geometry()?; // 2
         lap(&mut tm.geometry);
-        // 3. Interior momentum.
-        {
-            let fluid = &self.fluid;
-            self.interior.par_iter_mut().zip(self.bodies.par_iter()).for_each(|(im, body)| {
-                if has_interior_term(body) {
-                    im.before = interior_sums(fluid, body, periodic);
-                }
-            });
-        }
+        self.interior_sums(Moment::Before); // 3
         lap(&mut tm.interior);
-        // 4. Clear.
-        {
-            let layout = self.fluid.padded_layout();
-            let prev = &self.band_prev;
-            let writer = self.fluid.force_field_writer();
-            (0..grid.nz).into_par_iter().for_each(|z| {
-                for run in prev.plane(z) {
-                    let p0 = layout.index(run.x0 as usize, run.y as usize, run.z as usize);
-                    for p in p0..p0 + run.len as usize {
-                        // SAFETY: node p lies in plane z, which only this task touches.
-                        unsafe { writer.clear(p) };
-                    }
-                }
-            });
-        }
-        self.marker_force.par_iter_mut().for_each(|v| *v = [0.0; 3]);
-        // 5. Forcing iterations.
-        for _ in 0..self.iterations {
-            self.band_velocity();
-            interpolate(&self.velocity, &self.stencils, &mut self.fluid_u);
-            self.increment
-                .par_iter_mut()
-                .zip(self.marker_force.par_iter_mut())
-                .zip(self.solid.par_iter().zip(self.fluid_u.par_iter()).zip(self.area.par_iter()))
-                .for_each(|((inc, tot), ((us, uf), a))| {
-                    for k in 0..3 {
-                        inc[k] = 2.0 * (us[k] - uf[k]) * a;
-                        tot[k] += inc[k];
-                    }
-                });
-            let layout = self.fluid.padded_layout();
-            let sink = FieldSink { writer: self.fluid.force_field_writer(), layout };
-            spread_into(&self.increment, &self.stencils, &sink);
-        }
+        self.clear_forcing(); // 4
+        self.force(); // 5
         lap(&mut tm.forcing);
-        // 6. Fluid step.
-        self.fluid.step();
+        self.fluid.step(); // 6
         lap(&mut tm.fluid);
-        // 7. Interior sums after, and loads.
-        {
-            let fluid = &self.fluid;
-            self.interior.par_iter_mut().zip(self.bodies.par_iter()).for_each(|(im, body)| {
-                if has_interior_term(body) {
-                    im.after = interior_sums(fluid, body, periodic);
-                }
-            });
-        }
+        self.interior_sums(Moment::After); // 7
         lap(&mut tm.interior);
-        {
-            let (bodies, interior, offsets) = (&self.bodies, &self.interior, &self.offsets);
-            let (marker_force, position) = (&self.marker_force, &self.position);
-            self.loads.par_iter_mut().enumerate().for_each(|(b, loads)| {
-                let body = &bodies[b];
-                let mut f = Vec3::zeros();
-                let mut t = Vec3::zeros();
-                for m in offsets[b]..offsets[b + 1] {
-                    let fm = Vec3::from(marker_force[m]);
-                    let r = Vec3::from(position[m]) - body.position;
-                    f -= fm;
-                    t -= r.cross(&fm);
-                }
-                let im = &interior[b];
-                let (u, w) = (body.velocity, body.angular_velocity);
-                let inertia_fluid = body.inertia_world() / body.density();
-                let fi = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
-                let ti = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
-                *loads = BodyLoads {
-                    ibm_force: f,
-                    ibm_torque: t,
-                    interior_force: fi,
-                    interior_torque: ti,
-                    // The previous step's contact loads stay until step 8 replaces them: the
-                    // implicit shell reaction predicts with them.
-                    ..*loads
-                };
-            });
-        }
-        // 8. Bodies: external loads (hydrodynamic, with the implicit shell reaction, and net
-        // weight) into the accumulators; then either contacts sub-cycle the step or each body
-        // steps once.
-        let g = self.gravity;
-        for ((body, loads), (shell, change)) in
-            self.bodies.iter_mut().zip(&self.loads).zip(self.shell.iter().zip(self.change.iter()))
-        {
-            if body.is_free() {
-                let contact = (loads.contact_force, loads.contact_torque);
-                let (f, t) = shell_implicit(
-                    body,
-                    shell,
-                    change,
-                    contact,
-                    loads.force() + body.net_weight(g, 1.0),
-                    loads.torque(),
-                );
-                body.add_force(f);
-                body.add_torque(t);
-            }
-        }
-        for (c, b) in self.change.iter_mut().zip(&self.bodies) {
-            *c = (b.velocity, b.angular_velocity);
-        }
-        match self.contacts.as_mut() {
-            Some(contacts) => {
-                let avg = contacts.advance(&mut self.bodies, &self.markers, self.contact_substeps);
-                for (l, a) in self.loads.iter_mut().zip(avg) {
-                    l.contact_force = a.force;
-                    l.contact_torque = a.torque;
-                }
-            }
-            None => self.bodies.iter_mut().for_each(|b| b.step(1.0)),
-        }
-        for (c, b) in self.change.iter_mut().zip(&self.bodies) {
-            *c = if b.is_free() {
-                (b.velocity - c.0, b.angular_velocity - c.1)
-            } else {
-                (Vec3::zeros(), Vec3::zeros())
-            };
-        }
-        std::mem::swap(&mut self.band, &mut self.band_prev);
+        self.collect_loads(); // 7
         lap(&mut tm.bodies);
+        self.advance_bodies(); // 8
+        lap(&mut tm.contacts);
+        std::mem::swap(&mut self.band, &mut self.band_prev);
         tm.steps += 1;
         self.timings = tm;
         Ok(())
-    }
-
-    /// The fluid velocity at every band node into `self.velocity` (parallel over planes).
-    fn band_velocity(&mut self) {
-        let grid = self.fluid.grid();
-        let fluid = &self.fluid;
-        let band = &self.band;
-        let layout = grid.layout();
-        let out = PlaneShared(self.velocity.as_mut_ptr());
-        let out = &out;
-        (0..grid.nz).into_par_iter().for_each(|z| {
-            for &run in band.plane(z) {
-                let row = layout.index(0, run.y as usize, run.z as usize);
-                fluid.for_each_in_run(run, |x, rho, j, f| {
-                    let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
-                    // SAFETY: node (x, y, z) lies in plane z, which only this task writes;
-                    // the index is inside the grid-sized buffer.
-                    unsafe { *out.0.add(row + x) = u };
-                });
-            }
-        });
     }
 
     /// Runs `n` steps.
@@ -828,93 +655,6 @@ impl<T: Real + Planes> Coupled<T> {
     pub fn shape(&self, b: usize) -> &Arc<dyn Shape> {
         self.bodies[b].shape()
     }
-}
-
-/// The forcing shell of a body's markers (module docs): `K_t = Σ A_m` and, per body axis,
-/// `K_r,k = Σ A_m (|r_m|² − r_{m,k}²)` (a unit-thickness shell of fluid on the surface).
-fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
-    let mut kt = 0.0;
-    let mut kr = Vec3::zeros();
-    for m in markers {
-        let r = m.position;
-        kt += m.area;
-        kr += Vec3::new(r.y * r.y + r.z * r.z, r.z * r.z + r.x * r.x, r.x * r.x + r.y * r.y) * m.area;
-    }
-    (kt, kr)
-}
-
-/// The external load handed to a free body's integrator, with the shell reaction taken
-/// implicitly (module docs): the predicted change `ΔU* = (F + C + K_t ΔUⁿ)/(m + K_t)` (`C` the
-/// last step's averaged contact force, which the sub-cycling adds again itself) gives the
-/// correction `D = −K_t (ΔU* − ΔUⁿ)`, and `F + D` is returned; per body axis likewise for the
-/// torque. `D` vanishes whenever the velocity change is steady (at rest on a bed, in steady
-/// fall, in uniform acceleration), so every steady balance is the physical one; without
-/// contacts `F + D = m/(m + K_t) (F + K_t ΔUⁿ)`.
-fn shell_implicit(
-    body: &RigidBody,
-    shell: &(f64, Vec3),
-    change: &(Vec3, Vec3),
-    contact: (Vec3, Vec3),
-    f: Vec3,
-    t: Vec3,
-) -> (Vec3, Vec3) {
-    let (kt, kr) = shell;
-    let m = body.mass();
-    let du = (f + contact.0 + change.0 * *kt) / (m + kt);
-    let f = f - (du - change.0) * *kt;
-    let inertia = body.mass_properties().principal_moments;
-    let tb = body.vector_to_body(&t);
-    let cb = body.vector_to_body(&contact.1);
-    let dwb = body.vector_to_body(&change.1);
-    let tb = Vec3::from_fn(|k, _| {
-        let dw = (tb[k] + cb[k] + kr[k] * dwb[k]) / (inertia[k] + kr[k]);
-        tb[k] - kr[k] * (dw - dwb[k])
-    });
-    (f, body.vector_to_world(&tb))
-}
-
-/// `(P, L, V)` of `body`'s interior fluid (module docs): `Σ α j`, `Σ α r × j`, `Σ α` over the
-/// nodes with `sd < ½`; nodes deeper than `sd < −½` have `α = 1` without evaluating `sd`.
-/// Serial per body (a fixed order: deterministic).
-/// Whether a body's loads include the interior-fluid term: free and fixed bodies do; a
-/// prescribed body (an impeller) does not, since its loads are only reported, and the paper's
-/// fluid torque on an impeller is the immersed-boundary torque alone. Its sums stay zero.
-fn has_interior_term(body: &RigidBody) -> bool {
-    !matches!(body.motion(), Motion::Prescribed(_))
-}
-
-fn interior_sums<T: Real + Planes>(
-    fluid: &Fluid<T>,
-    body: &RigidBody,
-    periodic: [bool; 3],
-) -> (Vec3, Vec3, f64) {
-    let grid = fluid.grid();
-    let shape = body.shape().as_ref();
-    let c = body.position;
-    let mut p = Vec3::zeros();
-    let mut l = Vec3::zeros();
-    let mut v = 0.0;
-    row_spans(body, grid, periodic, 0.5, Some(-0.5), |s| {
-        emit_runs(grid, periodic, (s.xa, s.xb, s.y, s.z), |run: Run, shift| {
-            let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
-            fluid.for_each_in_run(run, |x, _rho, j, _f| {
-                let xu = x as i64 + shift[0];
-                let r = Vec3::new(xu as f64 - c.x, yu - c.y, zu - c.z);
-                let alpha = if s.xs <= xu && xu <= s.xe {
-                    1.0
-                } else {
-                    (0.5 - shape.signed_distance(&(s.origin + s.dir * xu as f64))).clamp(0.0, 1.0)
-                };
-                if alpha > 0.0 {
-                    v += alpha;
-                    let m = Vec3::from(j) * alpha;
-                    p += m;
-                    l += r.cross(&m);
-                }
-            });
-        });
-    });
-    (p, l, v)
 }
 
 #[cfg(test)]

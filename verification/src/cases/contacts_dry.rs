@@ -638,12 +638,9 @@ fn settled_bed() -> Bed {
     let t0 = Instant::now();
     let mut steps = 0;
     loop {
-        for b in &mut bodies {
-            let (v, w) = (b.velocity, b.angular_velocity);
-            b.add_force(weight - v * drag);
-            b.add_torque(-w * (drag * 36.0));
-        }
-        ct.advance(&mut bodies, &markers, DEFAULT_SUBSTEPS);
+        slurry::contact::step_bodies(Some(&mut ct), &mut bodies, &markers, DEFAULT_SUBSTEPS, |_, b| {
+            (weight - b.velocity * drag, -b.angular_velocity * (drag * 36.0))
+        });
         steps += 1;
         if steps >= 3000 {
             break;

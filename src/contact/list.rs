@@ -1,0 +1,613 @@
+//! The marker-pair list: every marker pair (and every marker–wall pair) that may come within
+//! reach while the bodies stay within half a **skin** of where they were when the list was
+//! built — a Verlet list with a skin, reused across the contact sub-steps and across fluid
+//! steps (module [`super`], "Evaluation").
+//!
+//! **Exactness.** The list holds every marker pair with `|x_j − x_i| < reach + skin` at the
+//! build poses (the narrow phase of [`Narrow`], run with that range). A marker of body `b`
+//! moves, from the build pose `(c₀, R₀)` to a pose `(c, R)`, by at most
+//!
+//! ```text
+//! s_b = |c − c₀| + r_b ‖R − R₀‖_F     (r_b the body's bounding radius; ‖·‖_F ≥ ‖·‖₂)
+//! ```
+//!
+//! so while every body has `s_b ≤ skin/2`, a pair not in the list is still farther apart than
+//! `reach` and does not interact; the list is rebuilt at the first evaluation where some body
+//! has moved more. Walls likewise: a marker is listed against a wall when it is within
+//! `cutoff + skin/2` of it. Within a body pair the list is sorted by `(i, j)` (marker indices),
+//! against the walls by `(i, wall)`: the order in which the interacting pairs are summed is
+//! the oracle's, so the loads are **bitwise those of the brute-force [`super::oracle`]**
+//! whenever the list was built, and whatever the number of threads (the list's content does
+//! not depend on them).
+//!
+//! **Which pairs.** Within the range, a pair is listed only if it can still interact before
+//! the rebuild: its normals can turn to face each other (`n_i·n_j ≤ ρ_a + ρ_b`, with
+//! `ρ_b = skin/(2 r_b)` the largest rotation the validity test allows) and its tangential
+//! distance can fall below `λ` (a lower bound of `δ_λ` after any allowed motion, in
+//! [`Narrow`]'s pair search). In a resting bed of flat faces this lists about 3× the
+//! interacting pairs instead of 13× for the range alone.
+//!
+//! **Cost.** A rebuild costs what one evaluation of the old per-sub-step narrow phase cost
+//! (patches, signed-distance pruning, per-pair bins); an evaluation from the list costs one
+//! transform per listed marker and one distance test per listed pair, plus the force law of
+//! the pairs within reach.
+
+use std::sync::Mutex;
+
+use rayon::prelude::*;
+
+use crate::rigid::{Marker, Mat3, RigidBody, Vec3};
+
+use super::engine::{Slot, MARGIN};
+use super::force::{pair_force, wall_distance, wall_force, Pose, WorldMarker};
+use super::grid::{fill, for_cells, Geometry};
+use super::params::ContactParams;
+use super::patches::Patches;
+
+/// Default skin (lattice units): a body may move by 0.15 spacings before the list is rebuilt.
+/// In a settled bed the list lives for hundreds of fluid steps; a particle thrown by an
+/// impeller blade (speed ≈ 0.1) forces a rebuild every one to two fluid steps (8–16
+/// sub-steps). A larger skin lists more pairs (the tangential bound grows with it), each
+/// tested at every sub-step.
+pub const DEFAULT_SKIN: f64 = 0.3;
+
+/// Body pairs handed to one parallel task of a rebuild (a fixed grouping: the list does not
+/// depend on the number of threads).
+const CHUNK: usize = 16;
+
+/// Per-thread buffers of the rebuild's narrow phase.
+#[derive(Debug, Default)]
+pub(crate) struct Scratch {
+    a: Vec<Placed>,
+    b: Vec<Placed>,
+    ca: Vec<WorldMarker>,
+    cb: Vec<WorldMarker>,
+    cell_of: Vec<u32>,
+    start: Vec<u32>,
+    items: Vec<u32>,
+    found: Vec<[u32; 2]>,
+}
+
+impl Scratch {
+    /// Buffers sized for bodies of up to `m` markers.
+    pub fn sized(m: usize) -> Self {
+        Self {
+            a: Vec::with_capacity(m),
+            b: Vec::with_capacity(m),
+            ca: Vec::with_capacity(m),
+            cb: Vec::with_capacity(m),
+            cell_of: Vec::with_capacity(m),
+            start: Vec::with_capacity(4 * m + 65),
+            items: Vec::with_capacity(m),
+            found: Vec::with_capacity(8 * m),
+        }
+    }
+
+    fn capacity(&self) -> usize {
+        self.a.capacity()
+            + self.b.capacity()
+            + self.ca.capacity()
+            + self.cb.capacity()
+            + self.cell_of.capacity()
+            + self.start.capacity()
+            + self.items.capacity()
+            + self.found.capacity()
+    }
+}
+
+/// The output of one rebuild task: per body pair (or body) of its chunk the number of entries,
+/// and the entries in order.
+#[derive(Debug, Default)]
+struct ChunkOut {
+    counts: Vec<u32>,
+    entries: Vec<[u32; 2]>,
+}
+
+/// What the rebuild's narrow phase reads.
+pub(crate) struct Narrow<'a, M> {
+    pub p: &'a ContactParams,
+    /// The skin of the list being built.
+    pub skin: f64,
+    pub walls: &'a [(usize, f64, Vec3)],
+    /// The listing range: `reach + skin`.
+    pub range: f64,
+    /// The listing distance from a wall: `cutoff + skin/2`.
+    pub wall_range: f64,
+    pub poses: &'a [Pose],
+    pub radius: &'a [f64],
+    pub surface_tol: &'a [f64],
+    pub patches: &'a [Patches],
+    pub bodies: &'a [RigidBody],
+    pub markers: &'a [M],
+}
+
+impl<M: AsRef<[Marker]>> Narrow<'_, M> {
+    /// The markers of body `a` that may lie within `range` of a marker of body `b`, in world
+    /// coordinates: `a`'s patches that meet `b`'s bounding sphere grown by `range`, then the
+    /// patches and markers within `range + tol_b` of `b`'s surface (`|sd_b|`; `tol_b` the
+    /// largest `|sd_b|` of `b`'s own markers). Exact pruning: a marker within `range` of one of
+    /// `b`'s markers is within `range + tol_b` of `b`'s surface, and `|sd_b|` is 1-Lipschitz,
+    /// so a patch whose centre has `|sd_b| ≥ range + tol_b + radius` holds no such marker.
+    fn collect(&self, a: usize, b: usize, out: &mut Vec<WorldMarker>) {
+        out.clear();
+        let (pa, pb) = (&self.poses[a], &self.poses[b]);
+        let ma = self.markers[a].as_ref();
+        let shape = self.bodies[b].shape();
+        let rho = self.radius[b] + self.range + MARGIN;
+        let lim = self.range + self.surface_tol[b] + MARGIN;
+        // Body frame of `a` → body frame of `b`: q = R_bᵀ R_a m + R_bᵀ (x_a − x_b).
+        let rot = pb.rotation.tr_mul(&pa.rotation);
+        let shift = pb.rotation.tr_mul(&(pa.position - pb.position));
+        let centre_b = pa.rotation.tr_mul(&(pb.position - pa.position));
+        let patches = &self.patches[a];
+        let other = &self.patches[b];
+        let near = self.range + MARGIN;
+        let near2 = near * near;
+        patches.visit(&centre_b, rho, |k| {
+            let q = rot * patches.centre[k] + shift;
+            let r = patches.radius[k];
+            if other.box_distance2(&q) >= (near + r) * (near + r)
+                || shape.signed_distance(&q).abs() >= lim + r
+            {
+                return;
+            }
+            for &i in patches.markers(k) {
+                let m = &ma[i as usize];
+                let q = rot * m.position + shift;
+                if other.box_distance2(&q) < near2 && shape.signed_distance(&q).abs() < lim {
+                    let (r, x) = pa.marker_position(m);
+                    let (n, u) = pa.marker_normal_velocity(m, &r);
+                    out.push(WorldMarker { index: i, r, x, n, u });
+                }
+            }
+        });
+    }
+
+    /// Whether no marker of `a` can come within `range` of `b`'s markers: `a`'s bounding
+    /// sphere is farther than `range` from the box of `b`'s markers, or `sd_b` at `a`'s centre
+    /// exceeds `a`'s bounding radius by `range + tol_b` (1-Lipschitz, as above).
+    fn apart(&self, a: usize, b: usize) -> bool {
+        let (pa, pb) = (&self.poses[a], &self.poses[b]);
+        let c = pb.rotation.tr_mul(&(pa.position - pb.position));
+        let gap = self.radius[a] + self.range + MARGIN;
+        self.patches[b].box_distance2(&c) >= gap * gap
+            || self.bodies[b].shape().signed_distance(&c) - self.radius[a]
+                >= self.range + self.surface_tol[b] + MARGIN
+    }
+
+    /// Appends to `out` the marker pairs `[i, j]` (`i` of `a`, `j` of `b`, `a < b`) closer
+    /// than `range`, sorted by `(i, j)`; returns how many.
+    fn pair(&self, a: usize, b: usize, s: &mut Scratch, out: &mut Vec<[u32; 2]>) -> u32 {
+        let Scratch { ca: ma, cb: mb, cell_of, start, items, found, .. } = s;
+        if self.apart(a, b) || self.apart(b, a) {
+            return 0;
+        }
+        self.collect(a, b, ma);
+        if ma.is_empty() {
+            return 0;
+        }
+        self.collect(b, a, mb);
+        if mb.is_empty() {
+            return 0;
+        }
+        let (mut lo, mut hi) = (mb[0].x, mb[0].x);
+        for m in mb.iter() {
+            lo = lo.inf(&m.x);
+            hi = hi.sup(&m.x);
+        }
+        // Bins of edge ≥ range: a partner within `range` is in one of the 27 neighbours.
+        let geo = Geometry::covering(&lo, &hi, self.range, 4 * mb.len() + 64);
+        fill(geo.len(), mb.len(), |k| geo.clamped_index(&mb[k].x), cell_of, start, items);
+        let near = self.range + MARGIN;
+        let near2 = near * near;
+        // While the list is valid, body `b`'s rotation has ‖ΔR_b‖ ≤ skin/(2 r_b) = ρ_b (module
+        // docs), so a normal turns by at most ρ_b and `n_i·n_j` changes by at most
+        // `ρ = ρ_a + ρ_b`; `Δn = n_i − n_j` changes by at most ρ and `d` by at most the skin.
+        let rot =
+            |b: usize| if self.radius[b] > 0.0 { 0.5 * self.skin / self.radius[b] } else { f64::INFINITY };
+        let rho = rot(a) + rot(b);
+        let facing = rho + MARGIN;
+        let tangential = self.p.lambda + self.skin + MARGIN;
+        let turn = rho * std::f64::consts::FRAC_1_SQRT_2;
+        found.clear();
+        for mi in ma.iter() {
+            let Some(r) = geo.neighbours(geo.coords(&mi.x)) else { continue };
+            for_cells(&geo, r, |c| {
+                for &k in &items[start[c] as usize..start[c + 1] as usize] {
+                    let mj = &mb[k as usize];
+                    let d = mj.x - mi.x;
+                    let d2 = d.norm_squared();
+                    if d2 >= near2 || mi.n.dot(&mj.n) > facing {
+                        continue;
+                    }
+                    // A pair interacts only with facing normals (`n_i'·n_j' ≤ 0`, so
+                    // `√2 ≤ |Δn'| ≤ 2`) and `δ_λ' = |d' × Δn'|/|Δn'| < λ`; and
+                    // `|d' × Δn'| ≥ |d × Δn| − skin |Δn'| − |d| ρ`, so
+                    // `δ_λ' ≥ |d × Δn|/2 − skin − |d| ρ/√2`: a pair above `λ` by that bound
+                    // cannot interact before the list is rebuilt.
+                    let dn = mi.n - mj.n;
+                    if 0.5 * d.cross(&dn).norm() - d2.sqrt() * turn < tangential {
+                        found.push([mi.index, mj.index]);
+                    }
+                }
+            });
+        }
+        found.sort_unstable();
+        out.extend_from_slice(found);
+        found.len() as u32
+    }
+
+    /// Appends to `out` the markers `[i, wall]` of body `b` (free bodies only) within
+    /// `wall_range` of a wall, sorted; returns how many.
+    fn walls_on(&self, b: usize, s: &mut Scratch, out: &mut Vec<[u32; 2]>) -> u32 {
+        let pose = &self.poses[b];
+        if !pose.free || self.walls.is_empty() {
+            return 0;
+        }
+        let lim = self.wall_range + MARGIN;
+        let mut near = [false; 6];
+        let mut any = false;
+        for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
+            near[w] = wall_distance(*axis, *plane, nhat, &pose.position) - self.radius[b] < lim;
+            any |= near[w];
+        }
+        if !any {
+            return 0;
+        }
+        let ms = self.markers[b].as_ref();
+        let patches = &self.patches[b];
+        let found = &mut s.found;
+        found.clear();
+        for k in 0..patches.centre.len() {
+            let c = pose.position + pose.rotation * patches.centre[k];
+            let mut hit = [false; 6];
+            let mut any = false;
+            for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
+                hit[w] = near[w] && wall_distance(*axis, *plane, nhat, &c) - patches.radius[k] < lim;
+                any |= hit[w];
+            }
+            if !any {
+                continue;
+            }
+            for &i in patches.markers(k) {
+                let (_, x) = pose.marker_position(&ms[i as usize]);
+                for (w, (axis, plane, nhat)) in self.walls.iter().enumerate() {
+                    if hit[w] && wall_distance(*axis, *plane, nhat, &x) < lim {
+                        found.push([i, w as u32]);
+                    }
+                }
+            }
+        }
+        found.sort_unstable();
+        out.extend_from_slice(found);
+        found.len() as u32
+    }
+}
+
+/// The marker-pair list (module docs).
+///
+/// Per listed body pair it keeps the two **sides** (the markers of `a` and of `b` that occur in
+/// its marker pairs, increasing) and the marker pairs as indices into them; per body, its
+/// markers listed against walls. An evaluation transforms each side into a per-thread buffer
+/// (the body-frame markers are shared by all bodies of a shape and stay in cache) and walks
+/// the pairs: no world-sized table of markers is written or read.
+#[derive(Debug)]
+pub(crate) struct PairList {
+    skin: f64,
+    valid: bool,
+    /// Rebuilds so far.
+    rebuilds: u64,
+    /// Each body's pose when the list was built.
+    built: Vec<(Vec3, Mat3)>,
+    /// Body pairs `(a, b)`, `a < b`, with at least one listed marker pair, sorted.
+    pub pairs: Vec<(u32, u32)>,
+    /// Sides of body pair `k`: `side[side_start[2k]..side_start[2k + 1]]` (of `a`) and
+    /// `side[side_start[2k + 1]..side_start[2k + 2]]` (of `b`), marker indices, increasing.
+    side_start: Vec<u32>,
+    side: Vec<u32>,
+    /// Marker pairs of body pair `k`: `mpairs[pair_start[k]..pair_start[k + 1]]`, as positions
+    /// in its two sides, sorted by marker indices `(i, j)`.
+    pair_start: Vec<u32>,
+    mpairs: Vec<[u32; 2]>,
+    /// Markers of body `b` listed against walls: `wside[wside_start[b]..wside_start[b + 1]]`
+    /// (increasing); its candidates `wpairs[wall_start[b]..wall_start[b + 1]]` as
+    /// `[position in that side, wall]`, sorted by marker, then wall.
+    wside_start: Vec<u32>,
+    wside: Vec<u32>,
+    wall_start: Vec<u32>,
+    wpairs: Vec<[u32; 2]>,
+    /// Per rebuild task: its output.
+    chunks: Vec<Mutex<ChunkOut>>,
+}
+
+impl PairList {
+    /// An empty (invalid) list.
+    pub fn new(skin: f64) -> Self {
+        Self {
+            skin,
+            valid: false,
+            rebuilds: 0,
+            built: Vec::new(),
+            pairs: Vec::new(),
+            side_start: Vec::new(),
+            side: Vec::new(),
+            pair_start: Vec::new(),
+            mpairs: Vec::new(),
+            wside_start: Vec::new(),
+            wside: Vec::new(),
+            wall_start: Vec::new(),
+            wpairs: Vec::new(),
+            chunks: Vec::new(),
+        }
+    }
+
+    /// The skin.
+    pub fn skin(&self) -> f64 {
+        self.skin
+    }
+
+    /// Rebuilds so far.
+    pub fn rebuilds(&self) -> u64 {
+        self.rebuilds
+    }
+
+    /// Listed marker pairs and marker–wall pairs.
+    pub fn len(&self) -> (usize, usize) {
+        (self.mpairs.len(), self.wpairs.len())
+    }
+
+    /// Whether the list still holds every pair within reach at `poses`: every body has moved
+    /// by at most `skin/2` (module docs) since the build.
+    pub fn covers(&self, poses: &[Pose], radius: &[f64]) -> bool {
+        if !self.valid || poses.len() != self.built.len() {
+            return false;
+        }
+        let half = 0.5 * self.skin;
+        poses
+            .iter()
+            .zip(&self.built)
+            .zip(radius)
+            .all(|((p, (c0, r0)), r)| (p.position - c0).norm() + r * (p.rotation - r0).norm() <= half)
+    }
+
+    /// Total capacity (elements) of the buffers.
+    pub fn capacity(&self) -> usize {
+        let chunks: usize = self
+            .chunks
+            .iter()
+            .map(|c| {
+                let c = c.lock().unwrap_or_else(|e| e.into_inner());
+                c.counts.capacity() + c.entries.capacity()
+            })
+            .sum();
+        chunks
+            + self.built.capacity()
+            + self.pairs.capacity()
+            + self.side_start.capacity()
+            + self.side.capacity()
+            + self.pair_start.capacity()
+            + self.mpairs.capacity()
+            + self.wside_start.capacity()
+            + self.wside.capacity()
+            + self.wall_start.capacity()
+            + self.wpairs.capacity()
+    }
+
+    /// Rebuilds the list at the narrow phase's poses from the candidate body pairs (the broad
+    /// phase run with the listing range). Deterministic: the candidates are cut into fixed
+    /// chunks, and their outputs are joined in order.
+    pub fn rebuild<M: AsRef<[Marker]> + Sync>(
+        &mut self,
+        narrow: &Narrow<'_, M>,
+        candidates: &[(u32, u32)],
+        scratch: &[Mutex<Scratch>],
+    ) {
+        self.rebuilds += 1;
+        self.built.clear();
+        self.built.extend(narrow.poses.iter().map(|p| (p.position, p.rotation)));
+        let n = narrow.poses.len();
+        let pair_chunks = candidates.len().div_ceil(CHUNK);
+        let body_chunks = n.div_ceil(CHUNK);
+        while self.chunks.len() < pair_chunks.max(body_chunks) {
+            self.chunks.push(Mutex::new(ChunkOut::default()));
+        }
+        let chunks = &self.chunks;
+        let task = |k: usize, f: &dyn Fn(usize, &mut Scratch, &mut Vec<[u32; 2]>) -> u32, len: usize| {
+            let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
+            let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
+            let mut out = chunks[k].lock().unwrap_or_else(|e| e.into_inner());
+            let ChunkOut { counts, entries } = &mut *out;
+            counts.clear();
+            entries.clear();
+            for item in k * CHUNK..((k + 1) * CHUNK).min(len) {
+                counts.push(f(item, &mut s, entries));
+            }
+        };
+        // Body pairs.
+        let pair = |i: usize, s: &mut Scratch, out: &mut Vec<[u32; 2]>| {
+            let (a, b) = candidates[i];
+            narrow.pair(a as usize, b as usize, s, out)
+        };
+        (0..pair_chunks).into_par_iter().for_each(|k| task(k, &pair, candidates.len()));
+        self.pairs.clear();
+        self.side_start.clear();
+        self.side.clear();
+        self.pair_start.clear();
+        self.mpairs.clear();
+        self.side_start.push(0);
+        self.pair_start.push(0);
+        for k in 0..pair_chunks {
+            let out = self.chunks[k].lock().unwrap_or_else(|e| e.into_inner());
+            let mut at = 0;
+            for (c, &count) in out.counts.iter().enumerate() {
+                let count = count as usize;
+                if count > 0 {
+                    self.pairs.push(candidates[k * CHUNK + c]);
+                    let found = &out.entries[at..at + count];
+                    // Side a: the i's, already increasing (pairs sorted by (i, j)).
+                    let sa = self.side.len();
+                    for &[i, _] in found {
+                        if self.side.len() == sa || *self.side.last().unwrap() != i {
+                            self.side.push(i);
+                        }
+                    }
+                    let sb = self.side.len();
+                    // Side b: the j's, sorted and deduplicated in place.
+                    self.side.extend(found.iter().map(|e| e[1]));
+                    self.side[sb..].sort_unstable();
+                    let mut w = sb;
+                    for r in sb..self.side.len() {
+                        if w == sb || self.side[w - 1] != self.side[r] {
+                            self.side[w] = self.side[r];
+                            w += 1;
+                        }
+                    }
+                    self.side.truncate(w);
+                    self.side_start.push(sb as u32);
+                    self.side_start.push(w as u32);
+                    let (side_a, side_b) = (&self.side[sa..sb], &self.side[sb..w]);
+                    let mut ia = 0;
+                    for &[i, j] in found {
+                        while side_a[ia] != i {
+                            ia += 1;
+                        }
+                        let jb = side_b.binary_search(&j).expect("j is on side b");
+                        self.mpairs.push([ia as u32, jb as u32]);
+                    }
+                    self.pair_start.push(self.mpairs.len() as u32);
+                }
+                at += count;
+            }
+        }
+        // Walls, per body.
+        (0..body_chunks).into_par_iter().for_each(|k| task(k, &|b, s, out| narrow.walls_on(b, s, out), n));
+        self.wside_start.clear();
+        self.wside.clear();
+        self.wall_start.clear();
+        self.wpairs.clear();
+        self.wside_start.push(0);
+        self.wall_start.push(0);
+        for k in 0..body_chunks {
+            let out = self.chunks[k].lock().unwrap_or_else(|e| e.into_inner());
+            let mut at = 0;
+            for &count in &out.counts {
+                let count = count as usize;
+                let s0 = self.wside.len();
+                for &[i, w] in &out.entries[at..at + count] {
+                    if self.wside.len() == s0 || *self.wside.last().unwrap() != i {
+                        self.wside.push(i);
+                    }
+                    self.wpairs.push([(self.wside.len() - 1 - s0) as u32, w]);
+                }
+                at += count;
+                self.wside_start.push(self.wside.len() as u32);
+                self.wall_start.push(self.wpairs.len() as u32);
+            }
+        }
+        self.valid = true;
+    }
+
+    /// The loads of listed body pair `k` (bodies at `poses`, body-frame `markers`): its two
+    /// sides placed in the world frame (into `s`), then its marker pairs within `reach`
+    /// through the force law, summed in list order (`(i, j)`: the oracle's). Lever arms
+    /// `r = R m`, positions `x = c + r`, normals `R n` and velocities `v + ω × r` are formed
+    /// with the operations of [`Pose::marker_position`] and [`Pose::marker_normal_velocity`].
+    pub fn pair_slot<M: AsRef<[Marker]>>(
+        &self,
+        k: usize,
+        poses: &[Pose],
+        markers: &[M],
+        p: &ContactParams,
+        reach2: f64,
+        s: &mut Scratch,
+    ) -> Slot {
+        let mut slot = Slot::EMPTY;
+        let (a, b) = self.pairs[k];
+        let (pa, pb) = (&poses[a as usize], &poses[b as usize]);
+        let sides = &self.side_start[2 * k..2 * k + 3];
+        place(pa, markers[a as usize].as_ref(), &self.side[sides[0] as usize..sides[1] as usize], &mut s.a);
+        place(pb, markers[b as usize].as_ref(), &self.side[sides[1] as usize..sides[2] as usize], &mut s.b);
+        let (wa, wb) = (&s.a, &s.b);
+        for &[i, j] in &self.mpairs[self.pair_start[k] as usize..self.pair_start[k + 1] as usize] {
+            let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
+            let (xi, xj) = (pa.position + mi.r, pb.position + mj.r);
+            if (xj - xi).norm_squared() < reach2 {
+                let (mi, mj) = (mi.world(pa, xi), mj.world(pb, xj));
+                if let Some(h) = pair_force(p, &mi, &mj) {
+                    slot.add_pair(&h.force, &mi.r, &mj.r, h.delta, h.elastic_energy(p));
+                }
+            }
+        }
+        slot
+    }
+
+    /// The loads of the walls on body `b` (at `pose`): its listed markers within the cutoff of a
+    /// wall, summed in list order (marker, then wall: the oracle's).
+    pub fn wall_slot<M: AsRef<[Marker]>>(
+        &self,
+        b: usize,
+        pose: &Pose,
+        markers: &[M],
+        p: &ContactParams,
+        walls: &[(usize, f64, Vec3)],
+        s: &mut Scratch,
+    ) -> Slot {
+        let mut slot = Slot::EMPTY;
+        let range = self.wall_start[b] as usize..self.wall_start[b + 1] as usize;
+        if range.is_empty() {
+            return slot;
+        }
+        let side = &self.wside[self.wside_start[b] as usize..self.wside_start[b + 1] as usize];
+        place(pose, markers[b].as_ref(), side, &mut s.a);
+        let cutoff = p.cutoff();
+        for &[i, w] in &self.wpairs[range] {
+            let (axis, plane, nhat) = &walls[w as usize];
+            let m = &s.a[i as usize];
+            let x = pose.position + m.r;
+            if wall_distance(*axis, *plane, nhat, &x) >= cutoff {
+                continue;
+            }
+            let m = m.world(pose, x);
+            if let Some(h) = wall_force(p, *axis, *plane, nhat, &m.x, &m.n, &m.u) {
+                slot.add_wall(&h.force, &m.r, h.delta, h.elastic_energy(p));
+            }
+        }
+        slot
+    }
+}
+
+/// A marker's lever arm `R m` and world normal `R n`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Placed {
+    r: Vec3,
+    n: Vec3,
+}
+
+impl Placed {
+    /// The marker in the world frame at position `x = c + r`, velocity `v + ω × r`.
+    #[inline(always)]
+    fn world(&self, pose: &Pose, x: Vec3) -> WorldMarker {
+        WorldMarker {
+            index: 0,
+            r: self.r,
+            x,
+            n: self.n,
+            u: pose.velocity + pose.angular_velocity.cross(&self.r),
+        }
+    }
+}
+
+/// The markers `side` of a body at `pose` into `out`.
+#[inline(always)]
+fn place(pose: &Pose, markers: &[Marker], side: &[u32], out: &mut Vec<Placed>) {
+    out.clear();
+    out.extend(side.iter().map(|&i| {
+        let m = &markers[i as usize];
+        Placed { r: pose.rotation * m.position, n: pose.rotation * m.normal }
+    }));
+}
+
+/// The total capacity of a set of per-thread scratch buffers.
+pub(crate) fn scratch_capacity(scratch: &[Mutex<Scratch>]) -> usize {
+    scratch.iter().map(|s| s.lock().unwrap_or_else(|e| e.into_inner()).capacity()).sum()
+}

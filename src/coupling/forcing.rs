@@ -1,0 +1,100 @@
+//! Phases 4–5 of the coupled step: clearing the force field where the previous step spread,
+//! and the direct-forcing iterations (band velocity, interpolation, `2ρ(U − u)A`, spreading
+//! straight into the fluid's force field).
+
+use rayon::prelude::*;
+
+use super::Coupled;
+use crate::ibm::{interpolate, spread_into, ForceSink};
+use crate::lattice::NodeLayout;
+use crate::lbm::kernel::Planes;
+use crate::lbm::{ForceFieldWriter, Real};
+
+/// The fluid's force field as a spreading target.
+struct FieldSink<'a, T> {
+    writer: ForceFieldWriter<'a, T>,
+    layout: NodeLayout,
+}
+
+impl<T: Real> ForceSink for FieldSink<'_, T> {
+    fn layout(&self) -> NodeLayout {
+        self.layout
+    }
+
+    #[inline(always)]
+    unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]) {
+        self.writer.add(index, w, f)
+    }
+}
+
+/// A grid-sized buffer written by the tasks of a per-plane loop (disjoint planes).
+struct PlaneShared<V>(*mut V);
+// SAFETY: used only by per-plane tasks that write nodes of their own plane.
+unsafe impl<V> Sync for PlaneShared<V> {}
+unsafe impl<V> Send for PlaneShared<V> {}
+
+impl<T: Real + Planes> Coupled<T> {
+    /// Phase 4: zero the force field on the previous step's band (the only nodes where it is
+    /// non-zero) and the markers' force totals.
+    pub(super) fn clear_forcing(&mut self) {
+        let grid = self.fluid.grid();
+        let layout = self.fluid.padded_layout();
+        let prev = &self.band_prev;
+        let writer = self.fluid.force_field_writer();
+        (0..grid.nz).into_par_iter().for_each(|z| {
+            for run in prev.plane(z) {
+                let p0 = layout.index(run.x0 as usize, run.y as usize, run.z as usize);
+                for p in p0..p0 + run.len as usize {
+                    // SAFETY: node p lies in plane z, which only this task touches.
+                    unsafe { writer.clear(p) };
+                }
+            }
+        });
+        self.marker_force.par_iter_mut().for_each(|v| *v = [0.0; 3]);
+    }
+
+    /// Phase 5: `K` direct-forcing iterations, each: the fluid velocity `u = (j + F/2)/ρ` at
+    /// the band nodes (the current force field included); `u_m = I u`; the increment
+    /// `ΔF_m = 2 ρ_m (U_m − u_m) A_m` (`ρ_m = 1`), accumulated per marker; spread (adding) into
+    /// the fluid's force field.
+    pub(super) fn force(&mut self) {
+        for _ in 0..self.iterations {
+            self.band_velocity();
+            interpolate(&self.velocity, &self.stencils, &mut self.fluid_u);
+            self.increment
+                .par_iter_mut()
+                .zip(self.marker_force.par_iter_mut())
+                .zip(self.solid.par_iter().zip(self.fluid_u.par_iter()).zip(self.area.par_iter()))
+                .for_each(|((inc, tot), ((us, uf), a))| {
+                    for k in 0..3 {
+                        inc[k] = 2.0 * (us[k] - uf[k]) * a;
+                        tot[k] += inc[k];
+                    }
+                });
+            let layout = self.fluid.padded_layout();
+            let sink = FieldSink { writer: self.fluid.force_field_writer(), layout };
+            spread_into(&self.increment, &self.stencils, &sink);
+        }
+    }
+
+    /// The fluid velocity at every band node into `self.velocity` (parallel over planes).
+    pub(super) fn band_velocity(&mut self) {
+        let grid = self.fluid.grid();
+        let fluid = &self.fluid;
+        let band = &self.band;
+        let layout = grid.layout();
+        let out = PlaneShared(self.velocity.as_mut_ptr());
+        let out = &out;
+        (0..grid.nz).into_par_iter().for_each(|z| {
+            for &run in band.plane(z) {
+                let row = layout.index(0, run.y as usize, run.z as usize);
+                fluid.for_each_in_run(run, |x, rho, j, f| {
+                    let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
+                    // SAFETY: node (x, y, z) lies in plane z, which only this task writes;
+                    // the index is inside the grid-sized buffer.
+                    unsafe { *out.0.add(row + x) = u };
+                });
+            }
+        });
+    }
+}

@@ -1,0 +1,125 @@
+//! Phases 7–8 of the coupled step: the loads on every body from the marker forces and the
+//! interior sums, and the bodies' update (with the implicit shell reaction, module [`super`];
+//! sub-cycled with contacts through [`crate::contact::step_bodies`], the one body update that
+//! the coupled step and the dry bed share).
+
+use rayon::prelude::*;
+
+use super::{BodyLoads, Coupled};
+use crate::contact::step_bodies;
+use crate::lbm::kernel::Planes;
+use crate::lbm::Real;
+use crate::rigid::{Marker, RigidBody, Vec3};
+
+impl<T: Real + Planes> Coupled<T> {
+    /// Phase 7 (end): per body `−Σ_m F_m`, `−Σ_m r_m × F_m` over its markers, and the interior
+    /// rates with their flux corrections ([`BodyLoads`]); the previous step's contact loads are
+    /// kept (the implicit shell reaction predicts with them). Parallel over bodies.
+    pub(super) fn collect_loads(&mut self) {
+        let (bodies, interior, offsets) = (&self.bodies, &self.interior, &self.offsets);
+        let (marker_force, position) = (&self.marker_force, &self.position);
+        self.loads.par_iter_mut().enumerate().for_each(|(b, loads)| {
+            let body = &bodies[b];
+            let mut f = Vec3::zeros();
+            let mut t = Vec3::zeros();
+            for m in offsets[b]..offsets[b + 1] {
+                let fm = Vec3::from(marker_force[m]);
+                let r = Vec3::from(position[m]) - body.position;
+                f -= fm;
+                t -= r.cross(&fm);
+            }
+            let im = &interior[b];
+            let (u, w) = (body.velocity, body.angular_velocity);
+            let inertia_fluid = body.inertia_world() / body.density();
+            let interior_force = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
+            let interior_torque = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
+            *loads = BodyLoads { ibm_force: f, ibm_torque: t, interior_force, interior_torque, ..*loads };
+        });
+    }
+
+    /// Phase 8: free bodies get their hydrodynamic loads (with the implicit shell reaction) and
+    /// net weight; then [`step_bodies`] advances every body over the step, sub-cycled with the
+    /// contacts when there are any; the averaged contact loads and each free body's velocity
+    /// change are recorded.
+    pub(super) fn advance_bodies(&mut self) {
+        let g = self.gravity;
+        for (s, b) in self.start.iter_mut().zip(&self.bodies) {
+            *s = (b.velocity, b.angular_velocity);
+        }
+        // `change` holds the last step's velocity change until the bodies have moved.
+        let (loads, shell, last) = (&self.loads, &self.shell, &self.change);
+        let averaged = step_bodies(
+            self.contacts.as_mut(),
+            &mut self.bodies,
+            &self.markers,
+            self.contact_substeps,
+            |b: usize, body: &RigidBody| {
+                let l = &loads[b];
+                shell_implicit(
+                    body,
+                    &shell[b],
+                    &last[b],
+                    (l.contact_force, l.contact_torque),
+                    l.force() + body.net_weight(g, 1.0),
+                    l.torque(),
+                )
+            },
+        );
+        if let Some(avg) = averaged {
+            for (l, a) in self.loads.iter_mut().zip(avg) {
+                l.contact_force = a.force;
+                l.contact_torque = a.torque;
+            }
+        }
+        for ((c, s), b) in self.change.iter_mut().zip(&self.start).zip(&self.bodies) {
+            *c = if b.is_free() {
+                (b.velocity - s.0, b.angular_velocity - s.1)
+            } else {
+                (Vec3::zeros(), Vec3::zeros())
+            };
+        }
+    }
+}
+
+/// The forcing shell of a body's markers (module docs): `K_t = Σ A_m` and, per body axis,
+/// `K_r,k = Σ A_m (|r_m|² − r_{m,k}²)` (a unit-thickness shell of fluid on the surface).
+pub(super) fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
+    let mut kt = 0.0;
+    let mut kr = Vec3::zeros();
+    for m in markers {
+        let r = m.position;
+        kt += m.area;
+        kr += Vec3::new(r.y * r.y + r.z * r.z, r.z * r.z + r.x * r.x, r.x * r.x + r.y * r.y) * m.area;
+    }
+    (kt, kr)
+}
+
+/// The external load handed to a free body's integrator, with the shell reaction taken
+/// implicitly (module docs): the predicted change `ΔU* = (F + C + K_t ΔUⁿ)/(m + K_t)` (`C` the
+/// last step's averaged contact force, which the sub-cycling adds again itself) gives the
+/// correction `D = −K_t (ΔU* − ΔUⁿ)`, and `F + D` is returned; per body axis likewise for the
+/// torque. `D` vanishes whenever the velocity change is steady (at rest on a bed, in steady
+/// fall, in uniform acceleration), so every steady balance is the physical one; without
+/// contacts `F + D = m/(m + K_t) (F + K_t ΔUⁿ)`.
+pub(super) fn shell_implicit(
+    body: &RigidBody,
+    shell: &(f64, Vec3),
+    change: &(Vec3, Vec3),
+    contact: (Vec3, Vec3),
+    f: Vec3,
+    t: Vec3,
+) -> (Vec3, Vec3) {
+    let (kt, kr) = shell;
+    let m = body.mass();
+    let du = (f + contact.0 + change.0 * *kt) / (m + kt);
+    let f = f - (du - change.0) * *kt;
+    let inertia = body.mass_properties().principal_moments;
+    let tb = body.vector_to_body(&t);
+    let cb = body.vector_to_body(&contact.1);
+    let dwb = body.vector_to_body(&change.1);
+    let tb = Vec3::from_fn(|k, _| {
+        let dw = (tb[k] + cb[k] + kr[k] * dwb[k]) / (inertia[k] + kr[k]);
+        tb[k] - kr[k] * (dw - dwb[k])
+    });
+    (f, body.vector_to_world(&tb))
+}

@@ -1,0 +1,46 @@
+//! Phases 1–2 of the coupled step: marker world positions and solid velocities, the IBM
+//! stencils and each body's band.
+
+use rayon::prelude::*;
+
+use super::band::band_runs;
+use super::{Coupled, CouplingError};
+use crate::lbm::kernel::Planes;
+use crate::lbm::Real;
+
+impl<T: Real + Planes> Coupled<T> {
+    /// Phase 1: every marker's world position `X_m` and solid velocity `U_m = v + ω × r` from
+    /// the bodies at `tⁿ` (parallel over markers, global marker order).
+    pub(super) fn place_markers(&mut self) {
+        let (bodies, markers, offsets, owner) = (&self.bodies, &self.markers, &self.offsets, &self.owner);
+        self.position
+            .par_iter_mut()
+            .zip(self.solid.par_iter_mut())
+            .zip(owner.par_iter())
+            .enumerate()
+            .for_each(|(i, ((x, u), &b))| {
+                let b = b as usize;
+                let (xw, _n, uw) = bodies[b].marker_world(&markers[b][i - offsets[b]]);
+                *x = [xw.x, xw.y, xw.z];
+                *u = [uw.x, uw.y, uw.z];
+            });
+    }
+
+    /// Phase 2: the stencils ([`crate::ibm::Stencils::build`], with the box's periodicity) and
+    /// the band of each body, grouped by z-plane.
+    ///
+    /// # Errors
+    /// A marker outside the box on a walled axis, or not finite (nothing else has changed).
+    pub(super) fn build_geometry(&mut self) -> Result<(), CouplingError> {
+        let grid = self.fluid.grid();
+        self.stencils.build(grid, self.periodic, &self.position)?;
+        let (periodic, half_width) = (self.periodic, self.band_half_width);
+        self.band
+            .per_body
+            .par_iter_mut()
+            .zip(self.bodies.par_iter())
+            .for_each(|(out, body)| band_runs(body, grid, periodic, half_width, out));
+        self.band.bucket(grid.nz);
+        Ok(())
+    }
+}
