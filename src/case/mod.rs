@@ -692,7 +692,7 @@ impl Case {
                 }
                 let tau = self.tau();
                 let nu_max = (MAX_TAU - 0.5) * CS2;
-                if !(tau > 0.5) {
+                if tau.is_nan() || tau <= 0.5 {
                     return Err(invalid(
                         "fluid.nu",
                         nu,
@@ -718,7 +718,7 @@ impl Case {
                         format!("must be finite and > 0.5, and at most {MAX_TAU} (tau = 3 nu + 1/2; nu > 0)"),
                     ));
                 }
-                if !(self.tau() > 0.5) {
+                if self.tau().is_nan() || self.tau() <= 0.5 {
                     return Err(invalid(
                         "fluid.tau",
                         tau,

@@ -758,7 +758,7 @@ impl Case {
         let count = self.random_count_f64(k);
         let v_p = particle_volume(r.shape, r.diameter, r.length);
         let filled = count * v_p / region_volume;
-        if !(filled <= MAX_VOLUME_FRACTION) {
+        if filled.is_nan() || filled > MAX_VOLUME_FRACTION {
             let (key, value) = match r.volume_fraction {
                 Some(phi) => ("volume_fraction", phi.to_string()),
                 None => ("count", format!("{count}")),
