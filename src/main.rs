@@ -57,12 +57,13 @@ struct ReproduceArgs {
     /// All six cases, one after the other.
     #[arg(long)]
     all: bool,
-    /// Scale s of the system (1: the paper's 251 × 251 × 240 with d = 12; 0.5: d = 6);
-    /// default 0.25 (d = 3; the smallest at which the random placement fits the particles).
-    #[arg(long)]
+    /// Scale s of the system, 0.25 ≤ s ≤ 1 (1: the paper's 251 × 251 × 240 with d = 12;
+    /// 0.5: d = 6); default 0.25 (d = 3; the smallest at which the random placement fits the
+    /// paper's particles in every case).
+    #[arg(long, allow_negative_numbers = true)]
     scale: Option<f64>,
-    /// Impeller revolutions after the ramp; default 4 (about 30 min on 2 cores), or 0.25 with --quick.
-    #[arg(long)]
+    /// Impeller revolutions after the ramp (> 0); default 4 (about 30 min on 2 cores), or 0.25 with --quick.
+    #[arg(long, allow_negative_numbers = true)]
     revolutions: Option<f64>,
     /// A short smoke-test run (scale 0.25, 0.25 revolutions after the ramp): about 8 minutes on 2 cores.
     #[arg(long)]
@@ -76,7 +77,7 @@ struct ReproduceArgs {
     /// Continue an interrupted run from its last checkpoint (bitwise identical result).
     #[arg(long)]
     resume: bool,
-    /// Number of worker threads (default: all cores, or RAYON_NUM_THREADS).
+    /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long, value_name = "N")]
     threads: Option<NonZeroUsize>,
     /// No progress output.
@@ -119,7 +120,7 @@ struct SettleArgs {
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Stop when the mean particle speed falls below this (lattice units).
-    #[arg(long, default_value_t = 1e-4)]
+    #[arg(long, default_value_t = 1e-4, allow_negative_numbers = true)]
     speed: f64,
     /// Steps between checks of the stopping rule.
     #[arg(long, default_value_t = 200)]
@@ -130,7 +131,7 @@ struct SettleArgs {
     /// Give up after this many steps (the bed is written, marked as not settled; exit 1).
     #[arg(long, default_value_t = 1_000_000)]
     max_steps: u64,
-    /// Number of worker threads (default: all cores, or RAYON_NUM_THREADS).
+    /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long, value_name = "N")]
     threads: Option<NonZeroUsize>,
     /// No progress output.
@@ -146,7 +147,7 @@ struct RunArgs {
     /// Output directory (created if needed; files of an earlier run are replaced).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
-    /// Number of worker threads (default: all cores, or RAYON_NUM_THREADS).
+    /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long, value_name = "N")]
     threads: Option<NonZeroUsize>,
     /// No progress bar.
@@ -172,6 +173,8 @@ const EXIT_FAILURE: u8 = 1;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Errors are reported once, as `error: …` lines, never as HDF5's own stack dump.
+    hdf5::silence_errors(true);
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Settle(a) => cmd_settle(a),
@@ -200,17 +203,65 @@ fn main() -> ExitCode {
 #[error("{0}")]
 struct BadInput(String);
 
+/// The machine's hardware threads (`std::thread::available_parallelism`, which honours CPU
+/// affinity and cgroup quotas; 1 when it cannot tell).
+fn hardware_threads() -> usize {
+    std::thread::available_parallelism().map_or(1, NonZeroUsize::get)
+}
+
+/// Refuses a thread count above the machine's (`--threads 100000` never returned).
+fn check_threads(flag: &str, n: usize) -> Result<(), BadInput> {
+    let cores = hardware_threads();
+    if n > cores {
+        return Err(BadInput(format!(
+            "{flag} {n}: this machine has {cores} hardware thread(s); allowed: 1 ..= {cores} \
+             (more threads than cores only slow the run down)"
+        )));
+    }
+    Ok(())
+}
+
+/// The worker pool: `threads`, or rayon's default (all cores, or `RAYON_NUM_THREADS`),
+/// refusing more threads than the machine has.
+fn thread_pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool, BadInput> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    match threads {
+        Some(n) => {
+            check_threads("--threads", n.get())?;
+            builder = builder.num_threads(n.get());
+        }
+        None => {
+            if let Ok(v) = std::env::var("RAYON_NUM_THREADS") {
+                if let Ok(n) = v.trim().parse::<usize>() {
+                    check_threads("RAYON_NUM_THREADS =", n)?;
+                }
+            }
+        }
+    }
+    builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))
+}
+
+/// Creates the output directory `dir` (flag `--out`) if needed and checks that files can be
+/// created in it: an unusable directory is bad input (exit status 2), found before any work.
+fn usable_out_dir(dir: &std::path::Path) -> Result<(), BadInput> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| BadInput(format!("--out {}: cannot create the output directory: {e}", dir.display())))?;
+    let probe = dir.join(format!(".slurry-write-test.{}", std::process::id()));
+    match std::fs::OpenOptions::new().write(true).create(true).truncate(true).open(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(())
+        }
+        Err(e) => {
+            Err(BadInput(format!("--out {}: cannot write into the output directory: {e}", dir.display())))
+        }
+    }
+}
+
 fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
     let case = Case::from_file(&a.case)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| {
-        BadInput(format!("--out {}: cannot create the output directory: {e}", a.out.display()))
-    })?;
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = a.threads {
-        builder = builder.num_threads(n.get());
-    }
-    let pool =
-        builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
+    usable_out_dir(&a.out)?;
+    let pool = thread_pool(a.threads)?;
     let opts = RunOptions { quiet: a.quiet, resume: a.resume };
     let summary = pool
         .install(|| run_case(&case, &a.out, opts))
@@ -237,12 +288,8 @@ fn cmd_settle(a: SettleArgs) -> anyhow::Result<()> {
     if !(a.speed.is_finite() && a.speed > 0.0) {
         return Err(BadInput(format!("--speed {}: must be positive and finite", a.speed)).into());
     }
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = a.threads {
-        builder = builder.num_threads(n.get());
-    }
-    let pool =
-        builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
+    usable_out_dir(&a.out)?;
+    let pool = thread_pool(a.threads)?;
     let opts = SettleOptions {
         speed: a.speed,
         check_every: a.check_every,
@@ -288,18 +335,13 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     } else {
         reproduce::DEFAULT_REVOLUTIONS
     });
-    if !(scale.is_finite() && (0.1..=1.0).contains(&scale)) {
-        return Err(BadInput(format!("--scale {scale}: allowed 0.1 ≤ s ≤ 1")).into());
+    if let Err(e) = reproduce::check_scale(scale) {
+        return Err(BadInput(e).into());
     }
     if !(revolutions.is_finite() && revolutions > 0.0) {
         return Err(BadInput(format!("--revolutions {revolutions}: must be finite and > 0")).into());
     }
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = a.threads {
-        builder = builder.num_threads(n.get());
-    }
-    let pool =
-        builder.build().map_err(|e| BadInput(format!("--threads: cannot build the thread pool: {e}")))?;
+    let pool = thread_pool(a.threads)?;
     let root = PathBuf::from("target").join("reproduce");
     let cache = a.cache.clone().unwrap_or_else(|| root.join("cache"));
     if !a.quiet {
@@ -320,6 +362,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             (Some(o), false) => o.clone(),
             (None, _) => root.join(name),
         };
+        usable_out_dir(&out)?;
         let opts = ReproduceOptions {
             scale,
             revolutions,
@@ -449,6 +492,11 @@ fn describe(c: &Case) -> String {
             );
         }
     }
+    let est = slurry::case::memory::MemoryEstimate::of(c);
+    let limit = slurry::case::memory::available_memory()
+        .map(|l| format!("{} available ({})", slurry::case::memory::fmt_bytes(l.bytes), l.source))
+        .unwrap_or_else(|| "available memory unknown".into());
+    let _ = writeln!(s, "memory      about {}; {limit}", est.describe());
     let _ = writeln!(
         s,
         "run         {} steps, output every {} ({} rows), Mach limit {}",
@@ -490,6 +538,9 @@ fn cmd_bench(a: BenchArgs) -> anyhow::Result<()> {
     }
     if a.threads.contains(&0) || a.reps == 0 || a.seconds.is_nan() || a.seconds <= 0.0 {
         return Err(BadInput("--threads, --reps and --seconds must be positive".into()).into());
+    }
+    for &t in &a.threads {
+        check_threads("--threads", t)?;
     }
     let mut results: Vec<BenchResult> = Vec::new();
     println!(

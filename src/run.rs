@@ -36,6 +36,7 @@ use serde::Serialize;
 
 use crate::case::{Case, ImpellerSetup, Precision};
 use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
+use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
@@ -135,6 +136,17 @@ pub struct NumericalError {
 #[derive(Clone, Debug, thiserror::Error)]
 #[error("{0}")]
 pub struct BadResume(pub String);
+
+/// The largest `max_mach` of the rows of a time series (0 when there is none or the file
+/// cannot be read): a resumed run's summary then covers the rows written before it.
+fn kept_max_mach(path: &Path) -> f64 {
+    let Ok(text) = std::fs::read_to_string(path) else { return 0.0 };
+    let mut lines = text.lines();
+    let Some(col) = lines.next().and_then(|h| h.split(',').position(|c| c == "max_mach")) else {
+        return 0.0;
+    };
+    lines.filter_map(|l| l.split(',').nth(col)?.parse::<f64>().ok()).fold(0.0, f64::max)
+}
 
 /// A body's state as a checkpoint row ([`BODY_STATE_LEN`] numbers; see `io::checkpoint`).
 fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
@@ -283,8 +295,11 @@ pub(crate) fn particle_statics(inits: &[crate::case::ParticleInit]) -> Vec<Parti
 /// run there are replaced). Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    case.check_memory().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
+    // Temporary files of a write that a kill interrupted (`.checkpoint.h5.tmp.PID`, …).
+    crate::io::remove_stale_temps(out_dir);
     match case.fluid.precision {
         Precision::F32 => run_typed::<f32>(case, out_dir, opts),
         Precision::F64 => run_typed::<f64>(case, out_dir, opts),
@@ -346,9 +361,21 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let ts_path = out_dir.join(files::TIMESERIES);
     let ck_path = out_dir.join(files::CHECKPOINT);
     let fingerprint = case.fingerprint();
+    let mut max_mach_before: f64 = 0.0;
     let mut ts = if opts.resume {
-        let ck = read_checkpoint::<T>(&ck_path)
-            .with_context(|| format!("cannot resume: no readable checkpoint {}", ck_path.display()))?;
+        let no_checkpoint = || {
+            format!(
+                "no checkpoint in {} (the run wrote none yet, or it is not a slurry checkpoint)",
+                out_dir.display()
+            )
+        };
+        if !ck_path.is_file() {
+            return Err(BadResume(no_checkpoint()).into());
+        }
+        let ck = read_checkpoint::<T>(&ck_path).map_err(|e| match e.downcast_ref::<PrecisionMismatch>() {
+            Some(p) => BadResume(p.to_string()),
+            None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), ck_path.display())),
+        })?;
         if ck.case != fingerprint {
             return Err(BadResume(format!(
                 "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
@@ -365,11 +392,21 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     .ok_or_else(|| BadResume(format!("{} holds no particle states", ck_path.display())))?;
                 let state =
                     CoupledState { fluid: ck.state, bodies: rows.iter().map(body_from_row).collect() };
-                c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+                // With the force field when the checkpoint has it (outputs at the resumed step
+                // need the velocity's half-force term); older checkpoints restore without.
+                c.restore_with_force_field(&state)
+                    .map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
             }
         }
-        TimeSeriesWriter::resume(&ts_path, solver.fluid().time())
-            .with_context(|| format!("cannot resume {}", ts_path.display()))?
+        let ts = TimeSeriesWriter::resume(&ts_path, solver.fluid().time()).map_err(|e| {
+            BadResume(format!(
+                "cannot resume {}: {e} (the checkpoint is there, the time series is not)",
+                ts_path.display()
+            ))
+        })?;
+        // The largest Mach number of the rows kept (the summary's covers the whole run).
+        max_mach_before = kept_max_mach(&ts_path);
+        ts
     } else {
         TimeSeriesWriter::create_columns(&ts_path, columns)
             .with_context(|| format!("cannot write {}", ts_path.display()))?
@@ -380,8 +417,12 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     } else {
         let statics = particle_statics(&inits);
         Some(if opts.resume {
-            ParticleHistoryWriter::resume(&ph_path, solver.fluid().time())
-                .with_context(|| format!("cannot resume {}", ph_path.display()))?
+            ParticleHistoryWriter::resume(&ph_path, solver.fluid().time()).map_err(|e| {
+                BadResume(format!(
+                    "cannot resume {}: {e} (the checkpoint is there, the particle history is not)",
+                    ph_path.display()
+                ))
+            })?
         } else {
             ParticleHistoryWriter::create(&ph_path, grid, case.gravity(), &statics)
                 .with_context(|| format!("cannot write {}", ph_path.display()))?
@@ -395,7 +436,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let pb = progress_bar(total, opts.quiet);
     pb.set_position(solver.fluid().time());
     let mut step_time = Duration::ZERO;
-    let mut max_mach: f64 = 0.0;
+    let mut max_mach: f64 = max_mach_before;
     let mut rows = 0u64;
     let mut last_good = solver.fluid().time();
     let mut initial_mass = f64::NAN;
@@ -419,7 +460,9 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                 return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
             }
             last_good = step;
-            max_mach = max_mach.max(health.max_mach);
+            if output_due {
+                max_mach = max_mach.max(health.max_mach);
+            }
             if step == 0 || (resumed_at == Some(step) && initial_mass.is_nan()) {
                 initial_mass = fluid.total_mass();
             }
@@ -455,7 +498,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                         write_checkpoint(&ck_path, &state, None, &fingerprint)
                     }
                     Solver::Coupled(c) => {
-                        let state = c.snapshot().context("checkpoint at an odd step")?;
+                        let state = c.snapshot_with_force_field().context("checkpoint at an odd step")?;
                         let rows: Vec<_> = state.bodies.iter().map(body_to_row).collect();
                         write_checkpoint(&ck_path, &state.fluid, Some(&rows), &fingerprint)
                     }

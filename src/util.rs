@@ -65,3 +65,91 @@ mod tests {
         }
     }
 }
+
+/// `x` for people: rounded to 12 significant digits, then in the shortest form that reads
+/// back as that rounded value (`2.4000000000000004` → `2.4`, `0.1 + 0.2` → `0.3`; integers
+/// and short decimals are unchanged, non-finite values print as Rust prints them).
+pub fn fmt_num(x: f64) -> String {
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let rounded: f64 = format!("{x:.11e}").parse().unwrap_or(x);
+    let a = rounded.abs();
+    if (1e-5..1e15).contains(&a) {
+        format!("{rounded}")
+    } else {
+        format!("{rounded:e}")
+    }
+}
+
+/// `text` with every decimal number that has more than 12 significant digits (a computed
+/// limit like `2.4000000000000004`) replaced by [`fmt_num`] of it; everything else, integers
+/// included, is left as it is.
+pub fn humanize_numbers(text: &str) -> String {
+    let bytes = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let starts_number = bytes[i].is_ascii_digit()
+            && (i == 0 || !(bytes[i - 1].is_ascii_alphanumeric() || bytes[i - 1] == b'_'));
+        if !starts_number {
+            let ch = text[i..].chars().next().unwrap_or(' ');
+            out.push(ch);
+            i += ch.len_utf8();
+            continue;
+        }
+        let mut j = i;
+        while j < bytes.len() && bytes[j].is_ascii_digit() {
+            j += 1;
+        }
+        if j + 1 < bytes.len() && bytes[j] == b'.' && bytes[j + 1].is_ascii_digit() {
+            j += 1;
+            while j < bytes.len() && bytes[j].is_ascii_digit() {
+                j += 1;
+            }
+            // An exponent, if any.
+            if j + 1 < bytes.len() && (bytes[j] == b'e' || bytes[j] == b'E') {
+                let mut k = j + 1;
+                if k < bytes.len() && (bytes[k] == b'-' || bytes[k] == b'+') {
+                    k += 1;
+                }
+                if k < bytes.len() && bytes[k].is_ascii_digit() {
+                    while k < bytes.len() && bytes[k].is_ascii_digit() {
+                        k += 1;
+                    }
+                    j = k;
+                }
+            }
+            let token = &text[i..j];
+            let mantissa = token.split(['e', 'E']).next().unwrap_or(token);
+            let digits = mantissa.trim_start_matches(['0', '.']).chars().filter(char::is_ascii_digit).count();
+            match token.parse::<f64>() {
+                Ok(v) if digits > 12 => out.push_str(&fmt_num(v)),
+                _ => out.push_str(token),
+            }
+        } else {
+            out.push_str(&text[i..j]);
+        }
+        i = j;
+    }
+    out
+}
+
+#[cfg(test)]
+mod fmt_tests {
+    use super::*;
+
+    #[test]
+    fn numbers_for_people() {
+        assert_eq!(fmt_num(2.4000000000000004), "2.4");
+        assert_eq!(fmt_num(0.1 + 0.2), "0.3");
+        assert_eq!(fmt_num(1e-300), "1e-300");
+        assert_eq!(fmt_num(12.0), "12");
+        assert_eq!(fmt_num(0.1875), "0.1875");
+        assert_eq!(
+            humanize_numbers("0 < shaft_diameter < 2.4000000000000004 (hub 2.4), 18446744073709551615"),
+            "0 < shaft_diameter < 2.4 (hub 2.4), 18446744073709551615"
+        );
+        assert_eq!(humanize_numbers("x2.4000000000000004 é 1.25"), "x2.4000000000000004 é 1.25");
+    }
+}

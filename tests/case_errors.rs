@@ -385,9 +385,14 @@ fn random_region_must_keep_off_the_walls() {
 
 #[test]
 fn impossible_placement_says_how_many_were_placed() {
+    // More than fit at all is refused before placing (issue 15: tests/issue_oom_abort.rs).
     rejects(
         &r_edit("count", "count = 2000"),
-        &["random_particles[0].count = 2000", "placed only", "of 2000", "attempts"],
+        &["random_particles[0].count = 2000", "at most 0.6", "count <= 988"],
+    );
+    rejects(
+        &r_edit("count", "count = 900"),
+        &["random_particles[0].count = 900", "placed only", "of 900", "attempts"],
     );
     rejects(
         &r_edit("count", "volume_fraction = 0.5"),

@@ -41,6 +41,7 @@
 
 pub mod impeller;
 mod keys;
+pub mod memory;
 pub mod particles;
 pub mod placement;
 
@@ -378,9 +379,36 @@ impl CaseErrorKind {
     }
 }
 
+/// An [`CaseErrorKind::Invalid`]; computed limits in `allowed` are rounded for people
+/// ([`crate::util::humanize_numbers`]: `2.4000000000000004` reads `2.4`).
 fn invalid(key: impl Into<String>, value: impl fmt::Display, allowed: impl Into<String>) -> CaseErrorKind {
-    CaseErrorKind::Invalid { key: key.into(), value: value.to_string(), allowed: allowed.into() }
+    CaseErrorKind::Invalid {
+        key: key.into(),
+        value: short_value(value.to_string()),
+        allowed: crate::util::humanize_numbers(&allowed.into()),
+    }
 }
+
+/// A value as written, but a number that Rust's `Display` spells with many digits
+/// (`1e-300` as 0.000…001) in exponent form, which reads back the same.
+fn short_value(v: String) -> String {
+    match v.parse::<f64>() {
+        Ok(x) if v.len() > 12 && x.is_finite() => {
+            let e = format!("{x:e}");
+            if e.len() < v.len() {
+                e
+            } else {
+                v
+            }
+        }
+        _ => v,
+    }
+}
+
+/// Largest allowed relaxation time τ (`fluid.tau`, or `3 fluid.nu + 1/2`): beyond it the
+/// fluid is so viscous per step that bounce-back walls slip by more than a lattice spacing
+/// (their error grows as τ²) and the run says nothing physical; `nu = 1e12` was accepted.
+pub const MAX_TAU: f64 = 100.0;
 
 /// `[a, b, c]` with each component in shortest round-trip form.
 pub(crate) fn fmt_vec(v: &[f64; 3]) -> String {
@@ -427,16 +455,40 @@ fn check_unknown_keys(doc: &toml::Table) -> Result<(), CaseErrorKind> {
             "impeller" => keys::struct_fields::<ImpellerSection>(),
             _ => return Err(unknown(name.clone(), top)),
         };
+        let array_of_tables = name == "particles" || name == "random_particles";
         match value {
+            // `[particles]` written for `[[particles]]`: serde's "expected a sequence" names
+            // the line and the fix (`type_error`).
             toml::Value::Table(t) => check_table(name, t, fields)?,
-            toml::Value::Array(items) => {
+            toml::Value::Array(items) if array_of_tables => {
                 for (i, item) in items.iter().enumerate() {
-                    if let toml::Value::Table(t) = item {
-                        check_table(&format!("{name}[{i}]"), t, fields)?;
+                    match item {
+                        toml::Value::Table(t) => check_table(&format!("{name}[{i}]"), t, fields)?,
+                        other => {
+                            return Err(CaseErrorKind::Invalid {
+                                key: format!("{name}[{i}]"),
+                                value: other.to_string(),
+                                allowed: format!(
+                                "each entry is a table of keys ({}): write [[{name}]] with one key per line",
+                                fields.join(", ")
+                            ),
+                            })
+                        }
                     }
                 }
             }
-            _ => {}
+            other => {
+                let (what, write) = if array_of_tables {
+                    ("an array of tables", format!("[[{name}]] (one per entry)"))
+                } else {
+                    ("a table", format!("[{name}] with its keys on the lines below"))
+                };
+                return Err(CaseErrorKind::Invalid {
+                    key: name.clone(),
+                    value: other.to_string(),
+                    allowed: format!("{name} must be {what}: write {write}; keys: {}", fields.join(", ")),
+                });
+            }
         }
     }
     Ok(())
@@ -537,7 +589,54 @@ impl Case {
     /// The first problem found is returned, naming its key.
     pub fn validate(&self) -> Result<(), CaseErrorKind> {
         self.validate_settings()?;
+        self.check_memory()?;
         self.particle_inits().map(|_| ())
+    }
+
+    /// Compares the memory the case needs ([`memory::MemoryEstimate`]) with what the machine
+    /// has ([`memory::available_memory`]); refuses the case, naming both, when it does not
+    /// fit. The key named is `domain`, or the random population with the most markers when
+    /// the particles need more than the grid. Nothing large is allocated here.
+    pub fn check_memory(&self) -> Result<(), CaseErrorKind> {
+        let Some(limit) = memory::available_memory() else { return Ok(()) };
+        let est = memory::MemoryEstimate::of(self);
+        if est.total() <= limit.bytes {
+            return Ok(());
+        }
+        let d = &self.domain;
+        let grid_value = format!("{} x {} x {} ({})", d.nx, d.ny, d.nz, self.fluid.precision.name());
+        let biggest_population = (0..self.random_particles.len()).max_by(|&a, &b| {
+            let m = |k: usize| self.random_count_f64(k);
+            m(a).total_cmp(&m(b))
+        });
+        let (key, value, advice) = match biggest_population {
+            Some(k) if est.grid_part() < est.markers.saturating_add(est.particles) => {
+                let r = &self.random_particles[k];
+                match r.volume_fraction {
+                    Some(phi) => (
+                        format!("random_particles[{k}].volume_fraction"),
+                        phi.to_string(),
+                        "lower the volume fraction or enlarge the particles",
+                    ),
+                    None => (
+                        format!("random_particles[{k}].count"),
+                        self.random_count(k).to_string(),
+                        "lower the count",
+                    ),
+                }
+            }
+            _ => ("domain".to_string(), grid_value, "use a smaller grid or f32 precision"),
+        };
+        Err(invalid(
+            key,
+            value,
+            format!(
+                "the case needs about {}; this machine has {} available ({}): {advice}",
+                est.describe(),
+                memory::fmt_bytes(limit.bytes),
+                limit.source
+            ),
+        ))
     }
 
     /// [`Case::validate`] without placing the particles (each particle entry is still
@@ -591,13 +690,43 @@ impl Case {
                 if !(nu.is_finite() && nu > 0.0) {
                     return Err(invalid("fluid.nu", nu, "must be finite and > 0 (tau = 3 nu + 1/2 > 0.5)"));
                 }
+                let tau = self.tau();
+                let nu_max = (MAX_TAU - 0.5) * CS2;
+                if tau.is_nan() || tau <= 0.5 {
+                    return Err(invalid(
+                        "fluid.nu",
+                        nu,
+                        format!(
+                            "too small: tau = 3 nu + 1/2 rounds to {tau} in double precision, and tau must be > 0.5 \
+                             (nu >= 1e-15 is safe; the allowed range is 0 < nu <= {nu_max})"
+                        ),
+                    ));
+                }
+                if tau > MAX_TAU {
+                    return Err(invalid(
+                        "fluid.nu",
+                        nu,
+                        format!("must be <= {nu_max} (tau = 3 nu + 1/2 <= {MAX_TAU}; here tau = {tau})"),
+                    ));
+                }
             }
             (None, Some(tau)) => {
-                if !(tau.is_finite() && tau > 0.5) {
+                if !(tau.is_finite() && tau > 0.5 && tau <= MAX_TAU) {
                     return Err(invalid(
                         "fluid.tau",
                         tau,
-                        "must be finite and > 0.5 (tau = 3 nu + 1/2; nu > 0)",
+                        format!("must be finite and > 0.5, and at most {MAX_TAU} (tau = 3 nu + 1/2; nu > 0)"),
+                    ));
+                }
+                if self.tau().is_nan() || self.tau() <= 0.5 {
+                    return Err(invalid(
+                        "fluid.tau",
+                        tau,
+                        format!(
+                            "too close to 0.5: the solver's tau = 3 nu + 1/2 with nu = (tau - 1/2)/3 rounds to {} \
+                             (allowed: 0.5 < tau <= {MAX_TAU}, tau - 0.5 >= 1e-15 is safe)",
+                            self.tau()
+                        ),
                     ));
                 }
             }

@@ -35,6 +35,10 @@ pub const MAX_VOLUME_FRACTION: f64 = 0.6;
 pub const EXPLICIT_WALL_MARGIN: f64 = 0.0;
 /// Spacing kept between random particles and the walls (default region).
 pub const RANDOM_WALL_MARGIN: f64 = 1.0;
+/// Smallest particle diameter (and cylinder length), lattice units: the IBM's delta
+/// kernels spread each marker over 2–4 nodes, and a particle smaller than one lattice
+/// spacing is not resolved (a sphere of diameter 1e-6 got a single marker).
+pub const MIN_PARTICLE_SIZE: f64 = 1.0;
 
 /// Particle shape as named in a case file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -324,6 +328,14 @@ impl ParticleInit {
     }
 }
 
+/// Surface area: `π d²` or `π d ℓ + π d²/2`.
+pub(super) fn particle_surface_area(shape: ShapeKind, d: f64, l: Option<f64>) -> f64 {
+    match shape {
+        ShapeKind::Sphere => PI * d * d,
+        ShapeKind::Cylinder => PI * d * l.unwrap_or(f64::NAN) + 0.5 * PI * d * d,
+    }
+}
+
 /// `π d³/6` or `π d² ℓ/4`.
 fn particle_volume(shape: ShapeKind, d: f64, l: Option<f64>) -> f64 {
     match shape {
@@ -362,6 +374,16 @@ fn check_shape(
             "must be finite and > 0 (lattice units)",
         ));
     }
+    if diameter < MIN_PARTICLE_SIZE {
+        return Err(invalid(
+            format!("{prefix}.diameter"),
+            diameter,
+            format!(
+                "must be >= {MIN_PARTICLE_SIZE} (lattice units): the immersed boundary needs a particle at least \
+                 one lattice spacing across to resolve it"
+            ),
+        ));
+    }
     match (shape, length) {
         (ShapeKind::Sphere, Some(l)) => {
             return Err(invalid(format!("{prefix}.length"), l, "only allowed with shape = \"cylinder\""));
@@ -374,6 +396,16 @@ fn check_shape(
         }
         (ShapeKind::Cylinder, Some(l)) if !(l.is_finite() && l > 0.0) => {
             return Err(invalid(format!("{prefix}.length"), l, "must be finite and > 0 (lattice units)"));
+        }
+        (ShapeKind::Cylinder, Some(l)) if l < MIN_PARTICLE_SIZE => {
+            return Err(invalid(
+                format!("{prefix}.length"),
+                l,
+                format!(
+                    "must be >= {MIN_PARTICLE_SIZE} (lattice units): the immersed boundary needs a particle at least \
+                     one lattice spacing across to resolve it"
+                ),
+            ));
         }
         _ => {}
     }
@@ -448,9 +480,30 @@ impl Case {
         }
     }
 
-    /// Total number of particles (explicit plus random).
+    /// [`Case::random_count`] in floating point, without its conversion to `usize` (for
+    /// bounds: a volume fraction of tiny particles can ask for more than `usize` holds).
+    pub fn random_count_f64(&self, k: usize) -> f64 {
+        let r = &self.random_particles[k];
+        match (r.count, r.volume_fraction) {
+            (Some(n), None) => n as f64,
+            (None, Some(phi)) => {
+                let v_box = self.domain.nx as f64 * self.domain.ny as f64 * self.domain.nz as f64;
+                let n = (phi * v_box / particle_volume(r.shape, r.diameter, r.length)).round();
+                if n.is_finite() && n >= 0.0 {
+                    n
+                } else {
+                    0.0
+                }
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Total number of particles (explicit plus random; saturating).
     pub fn particle_count(&self) -> usize {
-        self.particles.len() + (0..self.random_particles.len()).map(|k| self.random_count(k)).sum::<usize>()
+        (0..self.random_particles.len())
+            .map(|k| self.random_count(k))
+            .fold(self.particles.len(), usize::saturating_add)
     }
 
     /// The case with the particle defaults written out (`gravity`, `[ibm]`, zero velocities)
@@ -691,6 +744,39 @@ impl Case {
                     ));
                 }
             }
+        }
+        // What can be placed at all: the population's solids volume within its region.
+        let n = [self.domain.nx, self.domain.ny, self.domain.nz];
+        let periodic = self.periodic_axes();
+        let region_volume: f64 = (0..3)
+            .map(|a| match r.region {
+                Some(reg) => reg[1][a] - reg[0][a],
+                None if periodic[a] => n[a] as f64,
+                None => (n[a] as f64 - 2.0 * RANDOM_WALL_MARGIN).max(0.0),
+            })
+            .product();
+        let count = self.random_count_f64(k);
+        let v_p = particle_volume(r.shape, r.diameter, r.length);
+        let filled = count * v_p / region_volume;
+        if filled.is_nan() || filled > MAX_VOLUME_FRACTION {
+            let (key, value) = match r.volume_fraction {
+                Some(phi) => ("volume_fraction", phi.to_string()),
+                None => ("count", format!("{count}")),
+            };
+            let most = (MAX_VOLUME_FRACTION * region_volume / v_p).floor();
+            return Err(invalid(
+                format!("{pre}.{key}"),
+                value,
+                format!(
+                    "{} particles of volume {} would take {} times the volume {} of their region; at most \
+                     {MAX_VOLUME_FRACTION} of it can be filled, i.e. count <= {most} (random placement reaches \
+                     about 0.38 for spheres, less for elongated cylinders)",
+                    crate::util::fmt_num(count),
+                    crate::util::fmt_num(v_p),
+                    crate::util::fmt_num(filled),
+                    crate::util::fmt_num(region_volume)
+                ),
+            ));
         }
         Ok(())
     }

@@ -565,6 +565,82 @@ impl<T: Real + Planes> Coupled<T> {
         Ok(())
     }
 
+    /// [`Coupled::snapshot`] with the fluid's force field kept (the last step's IBM forcing):
+    /// the velocity's half-force term `u = (j + F/2)/ρ` at this step needs it, so the outputs
+    /// of a run resumed at this step (fields, momentum, Mach number) equal the uninterrupted
+    /// run's only if it is stored.
+    ///
+    /// # Errors
+    /// At an odd time step.
+    pub fn snapshot_with_force_field(&self) -> Result<CoupledState<T>, FluidError> {
+        let fluid = self.fluid.snapshot()?;
+        let bodies = self.snapshot_bodies();
+        Ok(CoupledState { fluid, bodies })
+    }
+
+    /// The bodies' part of [`Coupled::snapshot`].
+    fn snapshot_bodies(&self) -> Vec<BodyState> {
+        self.bodies
+            .iter()
+            .zip(&self.change)
+            .zip(&self.loads)
+            .map(|((b, c), l)| {
+                let q = b.orientation.into_inner();
+                BodyState {
+                    position: b.position,
+                    orientation: [q.w, q.i, q.j, q.k],
+                    velocity: b.velocity,
+                    angular_velocity: b.angular_velocity,
+                    time: b.time,
+                    change: *c,
+                    contact: (l.contact_force, l.contact_torque),
+                }
+            })
+            .collect()
+    }
+
+    /// [`Coupled::restore`], then the force field of `s` (when it has one, from
+    /// [`Coupled::snapshot_with_force_field`]) put back, so that everything computed from the
+    /// fluid before the next step equals the uninterrupted run's. The next step clears the
+    /// whole field first (the previous band is unknown after a restore), which is what the
+    /// uninterrupted run's clearing of its previous band leaves: the continuation stays
+    /// bitwise identical. Without a force field in `s` this is [`Coupled::restore`].
+    ///
+    /// # Errors
+    /// As [`Coupled::restore`].
+    pub fn restore_with_force_field(&mut self, s: &CoupledState<T>) -> Result<(), CouplingError> {
+        self.restore(s)?;
+        let Some(force) = &s.fluid.force else { return Ok(()) };
+        let g = self.fluid.grid();
+        if force.len() != 3 * g.nodes() {
+            return Err(CouplingError::State(format!(
+                "the force field has {} values; the {} x {} x {} grid needs {}",
+                force.len(),
+                g.nx,
+                g.ny,
+                g.nz,
+                3 * g.nodes()
+            )));
+        }
+        let n = g.nodes();
+        for i in 0..n {
+            let [x, y, z] = g.coords(i);
+            let fv = [force[i].to_f64(), force[n + i].to_f64(), force[2 * n + i].to_f64()];
+            self.fluid.set_force(x, y, z, fv);
+        }
+        // The previous band := every row of the grid, so that the next step clears it all.
+        self.band_prev.runs.clear();
+        self.band_prev.start.clear();
+        self.band_prev.start.push(0);
+        for z in 0..g.nz {
+            for y in 0..g.ny {
+                self.band_prev.runs.push(Run { x0: 0, len: g.nx as u32, y: y as u32, z: z as u32 });
+            }
+            self.band_prev.start.push(self.band_prev.runs.len());
+        }
+        Ok(())
+    }
+
     /// Time spent per phase of the step (see [`StepTimings`]).
     pub fn timings(&self) -> &StepTimings {
         &self.timings

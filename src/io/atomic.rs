@@ -43,6 +43,52 @@ pub fn atomic_write_bytes(path: &Path, bytes: &[u8]) -> io::Result<()> {
     atomic_write(path, |tmp| fs::write(tmp, bytes))
 }
 
+/// Removes the temporary files of [`temp_path`]'s form (`.NAME.tmp.PID`) that a killed
+/// process left in `dir`: those whose process is gone, and this process's own. A file of a
+/// process still running (another run writing into the same directory) is left alone.
+/// Returns the paths removed. Best effort: an unreadable directory removes nothing.
+pub fn remove_stale_temps(dir: &Path) -> Vec<PathBuf> {
+    let mut removed = Vec::new();
+    let Ok(entries) = fs::read_dir(dir) else { return removed };
+    for e in entries.flatten() {
+        let name = e.file_name();
+        let Some(name) = name.to_str() else { continue };
+        let Some(pid) = stale_temp_pid(name) else { continue };
+        if (pid == std::process::id() || !process_alive(pid)) && e.file_type().is_ok_and(|t| t.is_file()) {
+            let p = e.path();
+            if fs::remove_file(&p).is_ok() {
+                removed.push(p);
+            }
+        }
+    }
+    removed
+}
+
+/// The PID of a temporary name `.NAME.tmp.PID`, if `name` has that form.
+fn stale_temp_pid(name: &str) -> Option<u32> {
+    let rest = name.strip_prefix('.')?;
+    let (stem, pid) = rest.rsplit_once(".tmp.")?;
+    if stem.is_empty() || pid.is_empty() || !pid.bytes().all(|b| b.is_ascii_digit()) {
+        return None;
+    }
+    pid.parse().ok()
+}
+
+/// Whether a process with this PID exists (`kill(pid, 0)`; EPERM means it exists).
+#[cfg(unix)]
+fn process_alive(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else { return false };
+    // SAFETY: signal 0 only checks that the process exists; nothing is sent.
+    let r = unsafe { libc::kill(pid, 0) };
+    r == 0 || io::Error::last_os_error().raw_os_error() == Some(libc::EPERM)
+}
+
+/// Whether a process with this PID exists (assumed so where this cannot be checked).
+#[cfg(not(unix))]
+fn process_alive(_pid: u32) -> bool {
+    true
+}
+
 /// Syncs the directory holding `path` so that the rename itself is durable. Best effort:
 /// not every platform or file system can open a directory for syncing.
 fn sync_parent(path: &Path) {
@@ -67,6 +113,14 @@ mod tests {
         atomic_write_bytes(&p, b"two").unwrap();
         assert_eq!(fs::read(&p).unwrap(), b"two");
         assert_eq!(fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn temp_names_parse() {
+        assert_eq!(stale_temp_pid(".checkpoint.h5.tmp.1234"), Some(1234));
+        assert_eq!(stale_temp_pid("checkpoint.h5.tmp.1234"), None);
+        assert_eq!(stale_temp_pid(".checkpoint.h5.tmp."), None);
+        assert_eq!(stale_temp_pid(".x.tmp.12a"), None);
     }
 
     #[test]

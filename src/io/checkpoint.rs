@@ -2,7 +2,10 @@
 //!
 //! Layout: `/populations` is `T[19][nz][ny][nx]` (shifted populations `h = f − w`, storage
 //! precision `T`, so a restart is bitwise exact), `/force` is `T[3][nz][ny][nx]` when the force
-//! field is on. Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, and `case`: a
+//! field is on (runs with particles or an impeller: the last step's IBM forcing, which the
+//! velocity's half-force term at the checkpoint's step needs, so that the outputs of a run
+//! resumed there equal the uninterrupted run's; checkpoints written before it was stored
+//! restore with a zero field, exact for every later step). Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, and `case`: a
 //! fingerprint of the case (its normalised TOML without `run.steps`, so that a run can be
 //! extended) which a resume compares before it restores anything. With particles, `/bodies`
 //! is `f64[P][26]` ([`BODY_STATE_LEN`]).
@@ -34,6 +37,18 @@ pub struct Checkpoint<T> {
     pub bodies: Option<Vec<[f64; BODY_STATE_LEN]>>,
     /// The case fingerprint stored with it.
     pub case: String,
+}
+
+/// A checkpoint written with another storage precision than the case asks for.
+#[derive(Clone, Debug, thiserror::Error)]
+#[error("{path}: the checkpoint's precision is {found}, the case asks for {want}")]
+pub struct PrecisionMismatch {
+    /// The checkpoint.
+    pub path: std::path::PathBuf,
+    /// Its precision.
+    pub found: String,
+    /// The case's.
+    pub want: &'static str,
 }
 
 /// Writes `state` with the case fingerprint `case` to `path`, atomically.
@@ -74,11 +89,7 @@ pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Ch
     let file = hdf5::File::open(path)?;
     let precision = file.attr("precision")?.read_scalar::<VarLenUnicode>()?.to_string();
     if precision != T::NAME {
-        anyhow::bail!(
-            "{}: checkpoint precision is {precision}, the case asks for {}",
-            path.display(),
-            T::NAME
-        );
+        return Err(PrecisionMismatch { path: path.to_path_buf(), found: precision, want: T::NAME }.into());
     }
     let get = |name: &str| -> anyhow::Result<u64> { Ok(file.attr(name)?.read_scalar::<u64>()?) };
     let grid = Grid::new(get("nx")? as usize, get("ny")? as usize, get("nz")? as usize);

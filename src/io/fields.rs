@@ -15,12 +15,13 @@ use crate::lattice::Grid;
 /// Failure writing a field file.
 #[derive(Debug, thiserror::Error)]
 pub enum FieldsError {
-    /// File-system error (temporary file, sync, rename).
-    #[error("{0}")]
-    Io(#[from] std::io::Error),
-    /// Error from the HDF5 library.
-    #[error("HDF5: {0}")]
-    Hdf5(#[from] hdf5::Error),
+    /// File-system error (temporary file, sync, rename). Shown once (no source: the
+    /// message would otherwise be printed twice by a cause chain).
+    #[error("{}", io_message(.0))]
+    Io(std::io::Error),
+    /// Error from the HDF5 library, shown as one line ([`hdf5_message`]).
+    #[error("{}", hdf5_message(.0))]
+    Hdf5(hdf5::Error),
     /// Field length does not match the grid.
     #[error("field {name} has {len} values; the {nx} x {ny} x {nz} grid needs {want}")]
     Length {
@@ -37,6 +38,46 @@ pub enum FieldsError {
         /// Grid size along z.
         nz: usize,
     },
+}
+
+impl From<std::io::Error> for FieldsError {
+    fn from(e: std::io::Error) -> Self {
+        FieldsError::Io(e)
+    }
+}
+
+impl From<hdf5::Error> for FieldsError {
+    fn from(e: hdf5::Error) -> Self {
+        FieldsError::Hdf5(e)
+    }
+}
+
+/// An I/O error for people: "no space left on device" for a full disk (ENOSPC), else the
+/// system's message.
+pub fn io_message(e: &std::io::Error) -> String {
+    if e.raw_os_error() == Some(libc::ENOSPC) || e.kind() == std::io::ErrorKind::StorageFull {
+        "no space left on device".into()
+    } else {
+        e.to_string()
+    }
+}
+
+/// An HDF5 error as one line: "no space left on device" for a full disk (HDF5's stack then
+/// holds `errno = 28` and `bytes actually written = 18446744073709551615`), "permission
+/// denied", or `HDF5: ` with the stack's description on one line, without the file-driver
+/// details (`time = …, buf = …, total write size = …`).
+pub fn hdf5_message(e: &hdf5::Error) -> String {
+    let text = e.to_string();
+    if text.contains("No space left on device") || text.contains("errno = 28,") {
+        return "no space left on device".into();
+    }
+    if text.contains("Permission denied") || text.contains("errno = 13,") {
+        return "permission denied".into();
+    }
+    let one: Vec<&str> = text.lines().map(str::trim).filter(|l| !l.is_empty()).collect();
+    let one = one.join("; ");
+    let short = one.split(": time = ").next().unwrap_or(&one);
+    format!("HDF5: {short}")
 }
 
 /// Writes `rho` and `u` (interior node order, x fastest) at `time_step` to the HDF5 file

@@ -143,12 +143,12 @@ impl ParticleFrame {
 /// Failure writing or reading the particle history.
 #[derive(Debug, thiserror::Error)]
 pub enum ParticlesError {
-    /// File-system error (temporary file, copy, sync, rename).
-    #[error("{0}")]
-    Io(#[from] std::io::Error),
-    /// Error from the HDF5 library.
-    #[error("HDF5: {0}")]
-    Hdf5(#[from] hdf5::Error),
+    /// File-system error (temporary file, copy, sync, rename); shown once.
+    #[error("{}", super::fields::io_message(.0))]
+    Io(std::io::Error),
+    /// Error from the HDF5 library, as one line ([`super::fields::hdf5_message`]).
+    #[error("{}", super::fields::hdf5_message(.0))]
+    Hdf5(hdf5::Error),
     /// A frame array does not have one entry per particle.
     #[error("particle frame: {name} has {len} entries for {want} particles")]
     Length {
@@ -165,6 +165,18 @@ pub enum ParticlesError {
     /// A file that does not have the documented layout (reading).
     #[error("particle history: {0}")]
     Malformed(String),
+}
+
+impl From<std::io::Error> for ParticlesError {
+    fn from(e: std::io::Error) -> Self {
+        ParticlesError::Io(e)
+    }
+}
+
+impl From<hdf5::Error> for ParticlesError {
+    fn from(e: hdf5::Error) -> Self {
+        ParticlesError::Hdf5(e)
+    }
 }
 
 fn text(s: &str) -> VarLenUnicode {

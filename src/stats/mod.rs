@@ -134,12 +134,24 @@ pub enum StatsError {
     /// An argument out of range.
     #[error("invalid argument: {0}")]
     Argument(String),
-    /// File-system error (temporary file, sync, rename).
-    #[error("{0}")]
-    Io(#[from] std::io::Error),
-    /// Error from the HDF5 library.
-    #[error("HDF5: {0}")]
-    Hdf5(#[from] hdf5::Error),
+    /// File-system error (temporary file, sync, rename); shown once.
+    #[error("{}", crate::io::io_message(.0))]
+    Io(std::io::Error),
+    /// Error from the HDF5 library, as one line ([`crate::io::hdf5_message`]).
+    #[error("{}", crate::io::hdf5_message(.0))]
+    Hdf5(hdf5::Error),
+}
+
+impl From<std::io::Error> for StatsError {
+    fn from(e: std::io::Error) -> Self {
+        StatsError::Io(e)
+    }
+}
+
+impl From<hdf5::Error> for StatsError {
+    fn from(e: hdf5::Error) -> Self {
+        StatsError::Hdf5(e)
+    }
 }
 
 /// What the statistics need of a particle: shape, mass, principal moments of inertia.
