@@ -109,6 +109,77 @@ struct BenchArgs {
     /// Write the results as a JSON array to this file (atomically).
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
+    /// Measure the coupled step of the paper's cases instead (per phase, beside the fluid-only
+    /// step of the same grid; beds from the reproduction's cache, made on first use).
+    #[arg(long)]
+    coupled: bool,
+    /// With --coupled: the cases, comma separated (default: all six).
+    #[arg(long, value_delimiter = ',')]
+    cases: Vec<String>,
+    /// With --coupled: the scales, comma separated.
+    #[arg(long, value_delimiter = ',', default_values_t = [0.25, 0.5, 1.0], allow_negative_numbers = true)]
+    scales: Vec<f64>,
+    /// With --coupled: steps before timing (the impeller's ramp has started).
+    #[arg(long, default_value_t = 40)]
+    warmup: u64,
+    /// With --coupled: timed steps.
+    #[arg(long, default_value_t = 20)]
+    steps: u64,
+}
+
+/// `slurry bench --coupled`: the paper's cases at each scale, one thread count (the first of
+/// `--threads`, default 2), f32.
+fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
+    use slurry::reproduce::bench::{bench_case, CoupledBench};
+    let cases: Vec<String> = if a.cases.is_empty() {
+        slurry::reproduce::paper_cases().iter().map(|c| c.name.to_string()).collect()
+    } else {
+        a.cases.clone()
+    };
+    for &s in &a.scales {
+        if let Err(e) = slurry::reproduce::check_scale(s) {
+            return Err(BadInput(format!("--scales: {e}")).into());
+        }
+    }
+    if a.steps == 0 {
+        return Err(BadInput("--steps must be positive".into()).into());
+    }
+    let threads = a.threads.iter().copied().max().unwrap_or(2);
+    let pool = thread_pool(NonZeroUsize::new(threads))?;
+    let cache = PathBuf::from("target").join("reproduce").join("cache");
+    let mut rows: Vec<CoupledBench> = Vec::new();
+    println!(
+        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6}",
+        "case", "scale", "parts", "fluid", "step", "geometry", "interior", "forcing", "bodies", "contacts", "output", "ratio"
+    );
+    for &s in &a.scales {
+        for name in &cases {
+            let r = pool.install(|| bench_case(name, s, &cache, a.warmup, a.steps, false))?;
+            println!(
+                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2}",
+                r.case,
+                r.scale,
+                r.particles,
+                r.fluid_ms,
+                r.step_ms,
+                r.geometry_ms,
+                r.interior_ms,
+                r.forcing_ms,
+                r.bodies_ms,
+                r.contact_ms,
+                r.output_ms,
+                r.ratio
+            );
+            rows.push(r);
+            if let Some(path) = &a.json {
+                let text = serde_json::to_string_pretty(&rows)?;
+                slurry::io::atomic_write_bytes(path, text.as_bytes())
+                    .with_context(|| format!("cannot write {}", path.display()))?;
+            }
+        }
+    }
+    println!("(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid)");
+    Ok(())
 }
 
 /// `slurry settle`.
@@ -525,6 +596,9 @@ fn parse_size(s: &str) -> anyhow::Result<slurry::lattice::Grid> {
 
 fn cmd_bench(a: BenchArgs) -> anyhow::Result<()> {
     use slurry::bench::{measure, BenchResult};
+    if a.coupled {
+        return cmd_bench_coupled(a);
+    }
     let grids = a.sizes.iter().map(|s| parse_size(s)).collect::<anyhow::Result<Vec<_>>>()?;
     for p in &a.precisions {
         if p != "f32" && p != "f64" {

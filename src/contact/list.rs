@@ -95,6 +95,10 @@ impl Scratch {
     }
 }
 
+/// The search of one item (body pair or body) of a rebuild: appends its entries, returns how
+/// many.
+type Finder<'a> = dyn Fn(usize, &mut Scratch, &mut Vec<[u32; 2]>) -> u32 + Sync + 'a;
+
 /// The output of one rebuild task: per body pair (or body) of its chunk the number of entries,
 /// and the entries in order.
 #[derive(Debug, Default)]
@@ -412,7 +416,7 @@ impl PairList {
             self.chunks.push(Mutex::new(ChunkOut::default()));
         }
         let chunks = &self.chunks;
-        let task = |k: usize, f: &dyn Fn(usize, &mut Scratch, &mut Vec<[u32; 2]>) -> u32, len: usize| {
+        let task = |k: usize, f: &Finder<'_>, len: usize| {
             let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
             let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
             let mut out = chunks[k].lock().unwrap_or_else(|e| e.into_inner());

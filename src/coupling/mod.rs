@@ -92,7 +92,7 @@ use std::sync::Arc;
 
 use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
 use crate::ibm::{DeltaKernel, StencilError, Stencils};
-use crate::lattice::Face;
+use crate::lattice::{Face, Run};
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, FluidError, FluidState, Real};
 use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
@@ -644,6 +644,11 @@ impl<T: Real + Planes> Coupled<T> {
     /// Time spent per phase of the step (see [`StepTimings`]).
     pub fn timings(&self) -> &StepTimings {
         &self.timings
+    }
+
+    /// Rebuilds of the contacts' marker-pair list so far (0 without contacts).
+    pub fn contact_list_rebuilds(&self) -> u64 {
+        self.contacts.as_ref().map_or(0, |c| c.list_stats().0)
     }
 
     /// Restarts the phase timers.

@@ -27,6 +27,7 @@
 //! 3. **Statistics, figures, report** ([`report`]): from `timeseries.csv`, `particles.h5`
 //!    and `fields.h5`, deterministic, written atomically.
 
+pub mod bench;
 pub mod report;
 
 use std::fmt::Write as _;

@@ -11,6 +11,9 @@ use std::process::Command;
 /// Options: `--quick` (128³ only, fewer repetitions), `--no-peer` (skip lbmpy), and anything
 /// else is passed to `slurry bench`.
 pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
+    if args.iter().any(|a| a == "--coupled") {
+        return coupled(root, args);
+    }
     let quick = args.iter().any(|a| a == "--quick");
     let no_peer = args.iter().any(|a| a == "--no-peer");
     let mut pass: Vec<String> =
@@ -90,6 +93,38 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
         );
     }
     println!("\nfiles: {}, membw.json, lbmpy.json", lbm_json.display());
+    Ok(())
+}
+
+/// `--coupled [ARGS]`: the coupled step of the paper's cases (`slurry bench --coupled`, default
+/// scales 1/4, 1/2 and 1, 2 threads, f32) into `target/bench/coupled.json`, then the
+/// bandwidth ceiling (`membw.sh`) in the same run, into `target/bench/membw.json`.
+fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
+    let out = root.join("target/bench");
+    std::fs::create_dir_all(&out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let json = out.join("coupled.json");
+    let mut pass: Vec<String> = args.to_vec();
+    if !pass.iter().any(|a| a.starts_with("--threads")) {
+        pass.extend(["--threads".to_string(), "2".to_string()]);
+    }
+    println!("== slurry coupled step, the paper's cases ==");
+    let status = Command::new("cargo")
+        .current_dir(root)
+        .args(["run", "--release", "--quiet", "--bin", "slurry", "--", "bench", "--json"])
+        .arg(&json)
+        .args(&pass)
+        .status()
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
+    if !status.success() {
+        return Err("slurry bench --coupled failed".into());
+    }
+    if let Some(bench_dir) = shared_bench(root) {
+        println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
+        let membw = run_script(&bench_dir.join("membw.sh"), &["128", "1", "2"])?;
+        std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
+        print!("{membw}");
+    }
+    println!("\nfiles: {}, membw.json", json.display());
     Ok(())
 }
 

@@ -1,0 +1,150 @@
+//! `slurry bench --coupled` (and `cargo xtask bench --coupled`): the cost of the coupled step
+//! of the paper's cases, per phase, beside the fluid-only step of the same grid, measured in
+//! the same run (the machines are shared and noisy: ratios hold, absolute figures drift).
+//!
+//! Each case starts from its real settled bed (the reproduction's bed cache, [`super::bed`];
+//! made and cached on first use), with the impeller inserted as in [`super::stirred_case`],
+//! in `f32`. `warmup` coupled steps run first (the impeller's ramp starts at step 0, so the
+//! blades move and particles near them move and touch), then `steps` steps are timed with the
+//! coupling's phase timers ([`crate::coupling::StepTimings`]). The fluid-only step is a
+//! [`Fluid`] of the same grid and boundaries with its force field on, timed over as many steps.
+//!
+//! The per-output work of a run (the health check and the walls' momentum exchange behind the
+//! torque balance) is timed once and divided by the case's output interval: `output_ms`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::case::ImpellerSetup;
+use crate::coupling::Coupled;
+use crate::lbm::Fluid;
+use crate::settle::DryBedOptions;
+
+/// The measurement of one case at one scale (what `target/bench/coupled.json` holds).
+#[derive(Clone, Debug, Serialize)]
+pub struct CoupledBench {
+    /// Case name (`pbt-ld2`, …).
+    pub case: String,
+    /// Scale `s` (1 = the paper's grid).
+    pub scale: f64,
+    /// Worker threads.
+    pub threads: usize,
+    /// `"f32"`.
+    pub precision: String,
+    /// Grid size.
+    pub grid: [usize; 3],
+    /// Particles.
+    pub particles: usize,
+    /// Markers (particles and impeller).
+    pub markers: usize,
+    /// Fluid-only step on the same grid, ms.
+    pub fluid_ms: f64,
+    /// Coupled step, ms (all phases).
+    pub step_ms: f64,
+    /// Phase 1–2: markers, stencils, band, ms per step.
+    pub geometry_ms: f64,
+    /// Phases 3 and 7: interior sums, ms per step.
+    pub interior_ms: f64,
+    /// Phases 4–5: forcing, ms per step.
+    pub forcing_ms: f64,
+    /// Phase 6 inside the coupled step, ms per step.
+    pub fluid_in_step_ms: f64,
+    /// Phase 7–8: loads and external loads, ms per step.
+    pub bodies_ms: f64,
+    /// Phase 8: contacts and the sub-stepped body update, ms per step.
+    pub contact_ms: f64,
+    /// The immersed boundary's share: geometry + interior + forcing, ms per step.
+    pub ibm_ms: f64,
+    /// Per-output work of a run divided by its output interval, ms per step.
+    pub output_ms: f64,
+    /// `step_ms / fluid_ms`.
+    pub ratio: f64,
+    /// MLUPS of the fluid-only step.
+    pub fluid_mlups: f64,
+    /// MLUPS of the coupled step (nodes per coupled step).
+    pub coupled_mlups: f64,
+    /// Rebuilds of the contact pair list during the timed steps.
+    pub list_rebuilds: u64,
+}
+
+/// Measures case `name` at scale `scale` (module docs).
+///
+/// # Errors
+/// An unknown case or scale, a bed that cannot be settled or cached, a coupling that cannot
+/// be built.
+pub fn bench_case(
+    name: &str,
+    scale: f64,
+    cache: &Path,
+    warmup: u64,
+    steps: u64,
+    quiet: bool,
+) -> anyhow::Result<CoupledBench> {
+    let pc = super::paper_case(name)?;
+    let scaled = super::scale_case(&pc.case()?, scale)?;
+    let (bed, _) = super::bed(name, &scaled, DryBedOptions::default(), cache, quiet)?;
+    let sched = super::schedule(&scaled, 1.0)?;
+    let case = super::stirred_case(&scaled, &bed, &sched);
+    let grid = case.grid();
+    let inits = case.particle_inits().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
+    let impeller = case.impeller_setup().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
+    let new_fluid = || -> anyhow::Result<Fluid<f32>> {
+        let mut f = Fluid::<f32>::new(grid, case.fluid_params(), case.boundaries())?;
+        f.initialize(|x, y, z| case.initial_state(x, y, z));
+        Ok(f)
+    };
+    // Fluid alone, force field on (the coupled kernel reads it too).
+    let mut fluid = new_fluid()?;
+    fluid.enable_force_field();
+    fluid.run(4);
+    let t = Instant::now();
+    fluid.run(steps.max(2) & !1);
+    let fluid_ms = t.elapsed().as_secs_f64() * 1e3 / (steps.max(2) & !1) as f64;
+    drop(fluid);
+
+    let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
+    bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
+    let mut c = Coupled::new(new_fluid()?, bodies, case.coupling_params())
+        .map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
+    for _ in 0..warmup {
+        c.step().map_err(|e| anyhow::anyhow!("warm-up step: {e}"))?;
+    }
+    c.reset_timings();
+    let rebuilds0 = c.contact_list_rebuilds();
+    for _ in 0..steps {
+        c.step().map_err(|e| anyhow::anyhow!("timed step: {e}"))?;
+    }
+    let tm = *c.timings();
+    let per = |x: f64| x * 1e3 / steps as f64;
+    let t = Instant::now();
+    let _ = c.fluid().health(case.run.mach_limit);
+    let _ = c.fluid().wall_momentum_exchange([0.0; 3]);
+    let output_ms = t.elapsed().as_secs_f64() * 1e3 / sched.output_every as f64;
+    let step_ms = per(tm.total());
+    let nodes = grid.nodes() as f64;
+    Ok(CoupledBench {
+        case: name.to_string(),
+        scale,
+        threads: rayon::current_num_threads(),
+        precision: "f32".into(),
+        grid: [grid.nx, grid.ny, grid.nz],
+        particles: inits.len(),
+        markers: c.marker_count(),
+        fluid_ms,
+        step_ms,
+        geometry_ms: per(tm.geometry),
+        interior_ms: per(tm.interior),
+        forcing_ms: per(tm.forcing),
+        fluid_in_step_ms: per(tm.fluid),
+        bodies_ms: per(tm.bodies),
+        contact_ms: per(tm.contacts),
+        ibm_ms: per(tm.geometry + tm.interior + tm.forcing),
+        output_ms,
+        ratio: step_ms / fluid_ms,
+        fluid_mlups: nodes / fluid_ms / 1e3,
+        coupled_mlups: nodes / step_ms / 1e3,
+        list_rebuilds: c.contact_list_rebuilds() - rebuilds0,
+    })
+}
