@@ -150,7 +150,18 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     let mut rows: Vec<CoupledBench> = Vec::new();
     println!(
         "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6}",
-        "case", "scale", "parts", "fluid", "step", "geometry", "interior", "forcing", "bodies", "contacts", "output", "ratio"
+        "case",
+        "scale",
+        "parts",
+        "fluid",
+        "step",
+        "geometry",
+        "interior",
+        "forcing",
+        "bodies",
+        "contacts",
+        "output",
+        "ratio"
     );
     for &s in &a.scales {
         for name in &cases {

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::Coupled;
 use crate::ibm::{interpolate, spread_into, ForceSink};
-use crate::lattice::NodeLayout;
+use crate::lattice::{NodeLayout, Run};
 use crate::lbm::kernel::Planes;
 use crate::lbm::{ForceFieldWriter, Real};
 
@@ -38,6 +38,14 @@ impl<T: Real + Planes> Coupled<T> {
     /// non-zero) and the markers' force totals.
     pub(super) fn clear_forcing(&mut self) {
         let grid = self.fluid.grid();
+        if self.dense_band(self.band_prev.nodes(), grid.nodes()) {
+            // The bands cover most of the grid (small bodies in a dense bed, whose bands
+            // overlap): one streaming pass over the field. The same result, since the field is
+            // zero outside the previous band.
+            self.fluid.clear_force_field();
+            self.marker_force.par_iter_mut().for_each(|v| *v = [0.0; 3]);
+            return;
+        }
         let layout = self.fluid.padded_layout();
         let prev = &self.band_prev;
         let writer = self.fluid.force_field_writer();
@@ -77,7 +85,10 @@ impl<T: Real + Planes> Coupled<T> {
         }
     }
 
-    /// The fluid velocity at every band node into `self.velocity` (parallel over planes).
+    /// The fluid velocity at every band node into `self.velocity` (parallel over planes). When
+    /// the bands together hold more nodes than half the grid (small bodies in a dense bed have
+    /// bands several times their volume, and overlapping ones), the velocity is evaluated once
+    /// at every node instead, by the same arithmetic: bitwise the same values at the band nodes.
     pub(super) fn band_velocity(&mut self) {
         let grid = self.fluid.grid();
         let fluid = &self.fluid;
@@ -85,16 +96,32 @@ impl<T: Real + Planes> Coupled<T> {
         let layout = grid.layout();
         let out = PlaneShared(self.velocity.as_mut_ptr());
         let out = &out;
+        let all = self.dense_band(band.nodes(), grid.nodes());
+        let velocity = |run: Run| {
+            let row = layout.index(0, run.y as usize, run.z as usize);
+            fluid.for_each_in_run(run, |x, rho, j, f| {
+                let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
+                // SAFETY: node (x, y, z) lies in plane z, which only this task writes; the
+                // index is inside the grid-sized buffer.
+                unsafe { *out.0.add(row + x) = u };
+            });
+        };
         (0..grid.nz).into_par_iter().for_each(|z| {
-            for &run in band.plane(z) {
-                let row = layout.index(0, run.y as usize, run.z as usize);
-                fluid.for_each_in_run(run, |x, rho, j, f| {
-                    let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
-                    // SAFETY: node (x, y, z) lies in plane z, which only this task writes;
-                    // the index is inside the grid-sized buffer.
-                    unsafe { *out.0.add(row + x) = u };
-                });
+            if all {
+                for y in 0..grid.ny {
+                    velocity(Run { x0: 0, len: grid.nx as u32, y: y as u32, z: z as u32 });
+                }
+            } else {
+                band.plane(z).iter().for_each(|&run| velocity(run));
             }
         });
+    }
+}
+
+impl<T: Real + Planes> Coupled<T> {
+    /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
+    /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test).
+    fn dense_band(&self, band_nodes: usize, grid_nodes: usize) -> bool {
+        self.dense_override.unwrap_or(band_nodes > grid_nodes / 2)
     }
 }

@@ -335,6 +335,9 @@ pub struct Coupled<T: Real + Planes> {
     change: Vec<(Vec3, Vec3)>,
     /// Per body, its velocity and angular velocity at the start of the step's update.
     start: Vec<(Vec3, Vec3)>,
+    /// Forces the band velocity and clearing onto the band (`Some(false)`) or the whole grid
+    /// (`Some(true)`) instead of choosing by size (tests: both give the same bits).
+    dense_override: Option<bool>,
     timings: StepTimings,
     contacts: Option<Contacts>,
     contact_substeps: usize,
@@ -415,6 +418,7 @@ impl<T: Real + Planes> Coupled<T> {
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
             start: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
+            dense_override: None,
             timings: StepTimings::default(),
             contacts,
             contact_substeps: params.contact_substeps,

@@ -210,3 +210,39 @@ fn sphere_settles_on_the_floor_with_contacts() {
     );
     assert!((support + weight.z).abs() < 0.02 * weight.norm(), "support {support} vs weight {}", weight.z);
 }
+
+/// The band velocity and the clearing of the force field give the same bits over the bands
+/// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies).
+#[test]
+fn dense_and_sparse_band_paths_agree_bitwise() {
+    let run = |dense: bool| {
+        let mut fluid =
+            Fluid::<f32>::new(Grid::new(20, 20, 24), FluidParams::bgk(0.05), Boundaries::closed_box())
+                .unwrap();
+        fluid.initialize(|x, y, _| (1.0, [1e-3 * ((x + 2 * y) as f64 * 0.4).sin(), 0.0, 0.0]));
+        let bodies: Vec<RigidBody> = (0..4)
+            .map(|k| {
+                RigidBody::new(Arc::new(Sphere::new(4.0)), 1.25, Motion::Free).with_position(Vec3::new(
+                    5.0 + 9.0 * (k % 2) as f64,
+                    6.0 + 8.0 * (k / 2) as f64,
+                    8.0 + k as f64,
+                ))
+            })
+            .collect();
+        let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
+        let mut c = Coupled::new(fluid, bodies, params).unwrap();
+        c.dense_override = Some(dense);
+        c.run(30).unwrap();
+        let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
+        let bodies: Vec<u64> = c
+            .bodies()
+            .iter()
+            .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
+            .collect();
+        (pops, bodies, c.band_nodes())
+    };
+    let (sparse, dense) = (run(false), run(true));
+    assert!(sparse.2 < 20 * 20 * 24, "the bands should not cover the grid here");
+    assert!(sparse.0 == dense.0, "populations differ");
+    assert_eq!(sparse.1, dense.1, "bodies differ");
+}
