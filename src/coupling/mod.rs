@@ -510,25 +510,7 @@ impl<T: Real + Planes> Coupled<T> {
     pub fn snapshot(&self) -> Result<CoupledState<T>, FluidError> {
         let mut fluid = self.fluid.snapshot()?;
         fluid.force = None;
-        let bodies = self
-            .bodies
-            .iter()
-            .zip(&self.change)
-            .zip(&self.loads)
-            .map(|((b, c), l)| {
-                let q = b.orientation.into_inner();
-                BodyState {
-                    position: b.position,
-                    orientation: [q.w, q.i, q.j, q.k],
-                    velocity: b.velocity,
-                    angular_velocity: b.angular_velocity,
-                    time: b.time,
-                    change: *c,
-                    contact: (l.contact_force, l.contact_torque),
-                }
-            })
-            .collect();
-        Ok(CoupledState { fluid, bodies })
+        Ok(CoupledState { fluid, bodies: self.snapshot_bodies() })
     }
 
     /// Restores a state taken by [`Coupled::snapshot`] from a coupling built the same way (same
