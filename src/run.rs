@@ -394,8 +394,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     CoupledState { fluid: ck.state, bodies: rows.iter().map(body_from_row).collect() };
                 // With the force field when the checkpoint has it (outputs at the resumed step
                 // need the velocity's half-force term); older checkpoints restore without.
-                c.restore_with_force_field(&state)
-                    .map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+                c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
             }
         }
         let ts = TimeSeriesWriter::resume(&ts_path, solver.fluid().time()).map_err(|e| {
@@ -498,7 +497,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                         write_checkpoint(&ck_path, &state, None, &fingerprint)
                     }
                     Solver::Coupled(c) => {
-                        let state = c.snapshot_with_force_field().context("checkpoint at an odd step")?;
+                        let state = c.snapshot().context("checkpoint at an odd step")?;
                         let rows: Vec<_> = state.bodies.iter().map(body_to_row).collect();
                         write_checkpoint(&ck_path, &state.fluid, Some(&rows), &fingerprint)
                     }

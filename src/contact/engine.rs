@@ -30,8 +30,8 @@ impl ContactLoad {
 /// Counters and diagnostics of the last evaluation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactStats {
-    /// Body pairs that passed the broad phase (bounding spheres within reach; not both
-    /// non-free).
+    /// Body pairs in the marker-pair list (at least one marker pair within the listing range
+    /// when the list was built; not both non-free).
     pub candidate_pairs: usize,
     /// Body pairs with at least one interacting marker pair.
     pub touching_pairs: usize,
@@ -366,15 +366,15 @@ impl Contacts {
             self.wall_reaction = Vec3::zeros();
             return;
         }
+        // Scratch sized up front for the largest body, so that which thread meets which pair
+        // does not decide when a buffer grows.
+        let m = self.marker_counts.iter().copied().max().unwrap_or(0);
+        let threads = rayon::current_num_threads().max(1);
+        while self.scratch.len() < threads {
+            self.scratch.push(Mutex::new(Scratch::sized(m)));
+        }
         if !self.list.covers(&self.poses, &self.radius) {
             self.broad_phase(self.reach + self.list.skin());
-            // Scratch sized up front for the largest body, so that which thread meets which
-            // pair does not decide when a buffer grows.
-            let m = self.marker_counts.iter().copied().max().unwrap_or(0);
-            let threads = rayon::current_num_threads().max(1);
-            while self.scratch.len() < threads {
-                self.scratch.push(Mutex::new(Scratch::sized(m)));
-            }
             let narrow = Narrow {
                 p: &self.params,
                 skin: self.list.skin(),
@@ -389,11 +389,6 @@ impl Contacts {
                 markers,
             };
             self.list.rebuild(&narrow, &self.pairs, &self.scratch);
-        }
-        let m = self.marker_counts.iter().copied().max().unwrap_or(0);
-        let threads = rayon::current_num_threads().max(1);
-        while self.scratch.len() < threads {
-            self.scratch.push(Mutex::new(Scratch::sized(m)));
         }
         let (list, params, poses, scratch) = (&self.list, &self.params, &self.poses, &self.scratch);
         let reach2 = self.reach * self.reach;

@@ -251,8 +251,8 @@ pub struct BodyState {
 }
 
 /// Everything a coupled run needs to continue bitwise identically: the fluid at an even step
-/// and the bodies' states. The force field is not needed: the next step clears it where it is
-/// non-zero before reading it, so [`Coupled::restore`] zeroes it.
+/// (with the last step's force field, which the outputs at this step need) and the bodies'
+/// states.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CoupledState<T> {
     /// The fluid.
@@ -503,18 +503,23 @@ impl<T: Real + Planes> Coupled<T> {
         self.change[b]
     }
 
-    /// The state for a checkpoint (at an even time step; see [`Fluid::snapshot`]).
+    /// The state for a checkpoint (at an even time step; see [`Fluid::snapshot`]), with the
+    /// fluid's force field (the last step's IBM forcing): the next step does not need it, but
+    /// the velocity's half-force term `u = (j + F/2)/ρ` at this step does, so the outputs of a
+    /// run resumed here (fields, momentum, Mach number) equal the uninterrupted run's.
     ///
     /// # Errors
     /// At an odd time step.
     pub fn snapshot(&self) -> Result<CoupledState<T>, FluidError> {
-        let mut fluid = self.fluid.snapshot()?;
-        fluid.force = None;
-        Ok(CoupledState { fluid, bodies: self.snapshot_bodies() })
+        Ok(CoupledState { fluid: self.fluid.snapshot()?, bodies: self.snapshot_bodies() })
     }
 
     /// Restores a state taken by [`Coupled::snapshot`] from a coupling built the same way (same
-    /// case). The continuation is bitwise identical to the uninterrupted run.
+    /// case). The continuation is bitwise identical to the uninterrupted run, and with the
+    /// state's force field (as `snapshot` takes it) so is everything computed from the fluid
+    /// before the next step. Without one (older checkpoints) the field is zero. The next step
+    /// clears the whole field first (the previous band is unknown after a restore): what the
+    /// uninterrupted run's clearing of its previous band leaves.
     ///
     /// # Errors
     /// A fluid state that does not fit, or a body count that differs.
@@ -523,8 +528,10 @@ impl<T: Real + Planes> Coupled<T> {
             return Err(CouplingError::BodyCount { expected: self.bodies.len(), found: s.bodies.len() });
         }
         self.fluid.restore(&s.fluid).map_err(|e| CouplingError::State(e.to_string()))?;
-        self.fluid.enable_force_field();
-        self.fluid.clear_force_field();
+        if s.fluid.force.is_none() {
+            self.fluid.enable_force_field();
+            self.fluid.clear_force_field();
+        }
         for (((b, c), l), st) in
             self.bodies.iter_mut().zip(self.change.iter_mut()).zip(self.loads.iter_mut()).zip(&s.bodies)
         {
@@ -546,22 +553,18 @@ impl<T: Real + Planes> Coupled<T> {
             b.reset_load_history();
             *c = st.change;
         }
+        // The previous band := every row of the grid, so that the next step clears it all.
+        let g = self.fluid.grid();
         self.band_prev.runs.clear();
         self.band_prev.start.clear();
+        self.band_prev.start.push(0);
+        for z in 0..g.nz {
+            for y in 0..g.ny {
+                self.band_prev.runs.push(Run { x0: 0, len: g.nx as u32, y: y as u32, z: z as u32 });
+            }
+            self.band_prev.start.push(self.band_prev.runs.len());
+        }
         Ok(())
-    }
-
-    /// [`Coupled::snapshot`] with the fluid's force field kept (the last step's IBM forcing):
-    /// the velocity's half-force term `u = (j + F/2)/ρ` at this step needs it, so the outputs
-    /// of a run resumed at this step (fields, momentum, Mach number) equal the uninterrupted
-    /// run's only if it is stored.
-    ///
-    /// # Errors
-    /// At an odd time step.
-    pub fn snapshot_with_force_field(&self) -> Result<CoupledState<T>, FluidError> {
-        let fluid = self.fluid.snapshot()?;
-        let bodies = self.snapshot_bodies();
-        Ok(CoupledState { fluid, bodies })
     }
 
     /// The bodies' part of [`Coupled::snapshot`].
@@ -583,48 +586,6 @@ impl<T: Real + Planes> Coupled<T> {
                 }
             })
             .collect()
-    }
-
-    /// [`Coupled::restore`], then the force field of `s` (when it has one, from
-    /// [`Coupled::snapshot_with_force_field`]) put back, so that everything computed from the
-    /// fluid before the next step equals the uninterrupted run's. The next step clears the
-    /// whole field first (the previous band is unknown after a restore), which is what the
-    /// uninterrupted run's clearing of its previous band leaves: the continuation stays
-    /// bitwise identical. Without a force field in `s` this is [`Coupled::restore`].
-    ///
-    /// # Errors
-    /// As [`Coupled::restore`].
-    pub fn restore_with_force_field(&mut self, s: &CoupledState<T>) -> Result<(), CouplingError> {
-        self.restore(s)?;
-        let Some(force) = &s.fluid.force else { return Ok(()) };
-        let g = self.fluid.grid();
-        if force.len() != 3 * g.nodes() {
-            return Err(CouplingError::State(format!(
-                "the force field has {} values; the {} x {} x {} grid needs {}",
-                force.len(),
-                g.nx,
-                g.ny,
-                g.nz,
-                3 * g.nodes()
-            )));
-        }
-        let n = g.nodes();
-        for i in 0..n {
-            let [x, y, z] = g.coords(i);
-            let fv = [force[i].to_f64(), force[n + i].to_f64(), force[2 * n + i].to_f64()];
-            self.fluid.set_force(x, y, z, fv);
-        }
-        // The previous band := every row of the grid, so that the next step clears it all.
-        self.band_prev.runs.clear();
-        self.band_prev.start.clear();
-        self.band_prev.start.push(0);
-        for z in 0..g.nz {
-            for y in 0..g.ny {
-                self.band_prev.runs.push(Run { x0: 0, len: g.nx as u32, y: y as u32, z: z as u32 });
-            }
-            self.band_prev.start.push(self.band_prev.runs.len());
-        }
-        Ok(())
     }
 
     /// Time spent per phase of the step (see [`StepTimings`]).
