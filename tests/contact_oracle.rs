@@ -256,6 +256,57 @@ fn reused_list_stays_exact_and_rebuilds_when_bodies_move_too_far() {
     assert!(exercised >= 12, "only {exercised} configurations kept touching pairs after the move");
 }
 
+/// Moves body `k` of `c` by a random translation and rotation of displacement bound `limit`.
+fn move_one(c: &mut Config, rng: &mut SplitMix64, k: usize, limit: f64) {
+    let r = c.markers[k].iter().map(|mk| mk.position.norm()).fold(0.0, f64::max);
+    let axis = nalgebra::Unit::new_normalize(random_unit(rng));
+    let angle = 0.5 * limit / (r.max(1e-9) * std::f64::consts::SQRT_2);
+    let shift = random_unit(rng) * (0.5 * limit);
+    let b = &mut c.bodies[k];
+    let q = Quat::from_axis_angle(&axis, angle) * b.orientation;
+    *b = b.clone().with_position(b.position + shift).with_orientation(q);
+}
+
+/// One body at a time moves beyond the skin: only its entries are found again (a partial
+/// refresh, no full rebuild), against the others' reference poses, and the loads stay the
+/// oracle's bitwise; a last move of every body within what the references allow reuses the
+/// list and stays exact.
+#[test]
+fn partial_refresh_of_one_body_stays_exact() {
+    let skin = slurry::contact::DEFAULT_SKIN;
+    let mut exercised = 0;
+    for seed in 0..24u64 {
+        let mut c = config(seed);
+        let params = params_for(seed);
+        let mut ct = Contacts::new(params, c.walls, &c.bodies, &c.markers).unwrap();
+        ct.compute(&c.bodies, &c.markers);
+        let mut rng = SplitMix64(seed ^ 0xfee1);
+        let n = c.bodies.len();
+        for round in 0..6 {
+            let k = (rng.next_u64() % n as u64) as usize;
+            let limit = 0.5 * skin * rng.uniform(1.05, 3.0);
+            move_one(&mut c, &mut rng, k, limit);
+            let loads = ct.compute(&c.bodies, &c.markers).to_vec();
+            assert_eq!(ct.list_stats().0, round as u64 + 2, "seed {seed} round {round}: no refresh");
+            assert_eq!(ct.full_rebuilds(), 1, "seed {seed} round {round}: a full rebuild for one body");
+            let o = brute_force(&params, &c.walls, &c.bodies, &c.markers);
+            assert_eq!(bits(&loads), bits(&o.loads), "seed {seed} round {round}: refreshed list differs");
+            assert_eq!(ct.stats().marker_pairs, o.stats.marker_pairs);
+            assert_eq!(ct.stats().wall_contacts, o.stats.wall_contacts);
+            exercised += usize::from(o.stats.marker_pairs > 0);
+        }
+        // Every body is at its reference now (refreshed ones got new references): a move of
+        // each within 0.98 of half the skin reuses the list, exactly.
+        jiggle(&mut c, &mut rng, 0.5 * skin, 0.98);
+        let before = ct.list_stats().0;
+        let loads = ct.compute(&c.bodies, &c.markers).to_vec();
+        assert_eq!(ct.list_stats().0, before);
+        let o = brute_force(&params, &c.walls, &c.bodies, &c.markers);
+        assert_eq!(bits(&loads), bits(&o.loads), "seed {seed}: reused list differs after refreshes");
+    }
+    assert!(exercised >= 60, "only {exercised} refreshed configurations had touching pairs");
+}
+
 /// In one thread (with several, each thread's scratch grows until that thread has met the
 /// largest pair, which depends on the scheduling; then it stops growing too).
 #[test]

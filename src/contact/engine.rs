@@ -178,6 +178,10 @@ pub struct Contacts {
     cell_start: Vec<u32>,
     cell_items: Vec<u32>,
     pairs: Vec<(u32, u32)>,
+    /// Bodies whose list entries are found again in this evaluation.
+    stale: Vec<u32>,
+    /// Poses at which the list's entries are found (the narrow phase's).
+    reference: Vec<Pose>,
     slots: Vec<Slot>,
     wall_slots: Vec<Slot>,
     pub(crate) loads: Vec<ContactLoad>,
@@ -251,6 +255,8 @@ impl Contacts {
             cell_start: Vec::new(),
             cell_items: Vec::new(),
             pairs: Vec::new(),
+            stale: Vec::new(),
+            reference: Vec::with_capacity(n),
             slots: Vec::new(),
             wall_slots: Vec::with_capacity(n),
             loads: vec![ContactLoad::ZERO; n],
@@ -305,6 +311,8 @@ impl Contacts {
     pub fn buffer_capacity(&self) -> usize {
         scratch_capacity(&self.scratch)
             + self.list.capacity()
+            + self.stale.capacity()
+            + self.reference.capacity()
             + self.poses.capacity()
             + self.cell_of.capacity()
             + self.cell_start.capacity()
@@ -373,28 +381,53 @@ impl Contacts {
         while self.scratch.len() < threads {
             self.scratch.push(Mutex::new(Scratch::sized(m)));
         }
-        if !self.list.covers(&self.poses, &self.radius) {
-            self.broad_phase(self.reach + self.list.skin());
+        let n = bodies.len();
+        let full = if self.list.valid_for(n) {
+            self.list.stale(&self.poses, &self.radius, &mut self.stale);
+            // A refresh tests each stale body against every body; past an eighth of them (and
+            // more than one) the cell-list broad phase and a full rebuild are cheaper.
+            self.stale.len() > (n / 8).max(1)
+        } else {
+            true
+        };
+        if full || !self.stale.is_empty() {
+            let range = self.reach + self.list.skin();
+            if full {
+                self.broad_phase(range);
+                self.reference.clear();
+                self.reference.extend_from_slice(&self.poses);
+            } else {
+                // The others at their references, the stale ones where they are now.
+                self.list.reference_poses(&self.poses, &mut self.reference);
+                for &b in &self.stale {
+                    self.reference[b as usize] = self.poses[b as usize];
+                }
+                self.stale_pairs(range);
+            }
             let narrow = Narrow {
                 p: &self.params,
                 skin: self.list.skin(),
                 walls: &self.wall_list,
-                range: self.reach + self.list.skin(),
+                range,
                 wall_range: self.params.cutoff() + 0.5 * self.list.skin(),
-                poses: &self.poses,
+                poses: &self.reference,
                 radius: &self.radius,
                 surface_tol: &self.surface_tol,
                 patches: &self.patches,
                 bodies,
                 markers,
             };
-            self.list.rebuild(&narrow, &self.pairs, &self.scratch);
+            if full {
+                self.list.rebuild(&narrow, &self.pairs, &self.scratch);
+            } else {
+                self.list.refresh(&narrow, &self.stale, &self.pairs, &self.scratch);
+            }
         }
         let (list, params, poses, scratch) = (&self.list, &self.params, &self.poses, &self.scratch);
         let reach2 = self.reach * self.reach;
-        self.stats.candidate_pairs = list.pairs.len();
+        self.stats.candidate_pairs = list.pairs().len();
         self.slots.clear();
-        self.slots.resize(list.pairs.len(), Slot::EMPTY);
+        self.slots.resize(list.pairs().len(), Slot::EMPTY);
         // Chunks of pairs, one scratch lock each.
         self.slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| {
             let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
@@ -417,7 +450,7 @@ impl Contacts {
             });
         }
         self.wall_reaction =
-            accumulate(&self.list.pairs, &self.slots, &self.wall_slots, &mut self.loads, &mut self.stats);
+            accumulate(self.list.pairs(), &self.slots, &self.wall_slots, &mut self.loads, &mut self.stats);
     }
 
     /// Sets the skin of the marker-pair list (module `list`; default [`DEFAULT_SKIN`]) and
@@ -435,6 +468,34 @@ impl Contacts {
     pub fn list_stats(&self) -> (u64, usize, usize) {
         let (p, w) = self.list.len();
         (self.list.rebuilds(), p, w)
+    }
+
+    /// Full rebuilds of the marker-pair list so far (the rest of [`Contacts::list_stats`]'s
+    /// count are refreshes of the bodies that moved).
+    pub fn full_rebuilds(&self) -> u64 {
+        self.list.full_rebuilds()
+    }
+
+    /// The candidate body pairs of a refresh into `self.pairs`: every pair `(a, b)`, `a < b`,
+    /// that involves a stale body and passes [`Contacts::broad_phase`]'s test at the
+    /// reference poses, sorted, each once.
+    fn stale_pairs(&mut self, range: f64) {
+        let poses = &self.reference;
+        let radius = &self.radius;
+        let reach = range + MARGIN;
+        self.pairs.clear();
+        for &s in &self.stale {
+            let s = s as usize;
+            for b in 0..poses.len() {
+                let (ps, pb) = (&poses[s], &poses[b]);
+                let r = radius[s] + radius[b] + reach;
+                if b != s && (ps.free || pb.free) && (ps.position - pb.position).norm_squared() < r * r {
+                    self.pairs.push((s.min(b) as u32, s.max(b) as u32));
+                }
+            }
+        }
+        self.pairs.sort_unstable();
+        self.pairs.dedup();
     }
 
     /// Candidate body pairs `(a, b)`, `a < b`, sorted: bounding spheres closer than `range`

@@ -12,12 +12,17 @@
 //! ```
 //!
 //! so while every body has `s_b ≤ skin/2`, a pair not in the list is still farther apart than
-//! `reach` and does not interact; the list is rebuilt at the first evaluation where some body
-//! has moved more. Walls likewise: a marker is listed against a wall when it is within
+//! `reach` and does not interact. The poses are per body **references**: at the first
+//! evaluation where some bodies have moved more (they are *stale*), only their entries are
+//! found again, at their current poses (their new references) against the other bodies'
+//! references, and merged with the rest of the list in body-pair order
+//! ([`PairList::refresh`]); the argument above holds pair by pair. When more than an eighth of
+//! the bodies are stale the whole list is rebuilt. A turning impeller (tips moving by tenths of
+//! a spacing per fluid step) is so refreshed alone, without rebuilding the bed's list. Walls likewise: a marker is listed against a wall when it is within
 //! `cutoff + skin/2` of it. Within a body pair the list is sorted by `(i, j)` (marker indices),
 //! against the walls by `(i, wall)`: the order in which the interacting pairs are summed is
 //! the oracle's, so the loads are **bitwise those of the brute-force [`super::oracle`]**
-//! whenever the list was built, and whatever the number of threads (the list's content does
+//! whenever the list was built or refreshed, and whatever the number of threads (the list's content does
 //! not depend on them).
 //!
 //! **Which pairs.** Within the range, a pair is listed only if it can still interact before
@@ -288,23 +293,12 @@ impl<M: AsRef<[Marker]>> Narrow<'_, M> {
     }
 }
 
-/// The marker-pair list (module docs).
-///
-/// Per listed body pair it keeps the two **sides** (the markers of `a` and of `b` that occur in
-/// its marker pairs, increasing) and the marker pairs as indices into them; per body, its
-/// markers listed against walls. An evaluation transforms each side into a per-thread buffer
-/// (the body-frame markers are shared by all bodies of a shape and stay in cache) and walks
-/// the pairs: no world-sized table of markers is written or read.
-#[derive(Debug)]
-pub(crate) struct PairList {
-    skin: f64,
-    valid: bool,
-    /// Rebuilds so far.
-    rebuilds: u64,
-    /// Each body's pose when the list was built.
-    built: Vec<(Vec3, Mat3)>,
+/// The list's content: body pairs with their sides and marker pairs, and the markers listed
+/// against walls. Two of them alternate (a refresh merges the current one into the other).
+#[derive(Debug, Default)]
+struct Content {
     /// Body pairs `(a, b)`, `a < b`, with at least one listed marker pair, sorted.
-    pub pairs: Vec<(u32, u32)>,
+    pairs: Vec<(u32, u32)>,
     /// Sides of body pair `k`: `side[side_start[2k]..side_start[2k + 1]]` (of `a`) and
     /// `side[side_start[2k + 1]..side_start[2k + 2]]` (of `b`), marker indices, increasing.
     side_start: Vec<u32>,
@@ -320,6 +314,144 @@ pub(crate) struct PairList {
     wside: Vec<u32>,
     wall_start: Vec<u32>,
     wpairs: Vec<[u32; 2]>,
+}
+
+impl Content {
+    fn clear(&mut self) {
+        self.pairs.clear();
+        self.side_start.clear();
+        self.side.clear();
+        self.pair_start.clear();
+        self.mpairs.clear();
+        self.wside_start.clear();
+        self.wside.clear();
+        self.wall_start.clear();
+        self.wpairs.clear();
+        self.side_start.push(0);
+        self.pair_start.push(0);
+        self.wside_start.push(0);
+        self.wall_start.push(0);
+    }
+
+    fn capacity(&self) -> usize {
+        self.pairs.capacity()
+            + self.side_start.capacity()
+            + self.side.capacity()
+            + self.pair_start.capacity()
+            + self.mpairs.capacity()
+            + self.wside_start.capacity()
+            + self.wside.capacity()
+            + self.wall_start.capacity()
+            + self.wpairs.capacity()
+    }
+
+    /// Appends body pair `pair` of another content `from` (its `k`-th), unchanged.
+    fn copy_pair(&mut self, from: &Content, k: usize) {
+        self.pairs.push(from.pairs[k]);
+        let (s0, s1, s2) = (
+            from.side_start[2 * k] as usize,
+            from.side_start[2 * k + 1] as usize,
+            from.side_start[2 * k + 2] as usize,
+        );
+        let base = self.side.len();
+        self.side.extend_from_slice(&from.side[s0..s2]);
+        self.side_start.push((base + s1 - s0) as u32);
+        self.side_start.push((base + s2 - s0) as u32);
+        self.mpairs
+            .extend_from_slice(&from.mpairs[from.pair_start[k] as usize..from.pair_start[k + 1] as usize]);
+        self.pair_start.push(self.mpairs.len() as u32);
+    }
+
+    /// Appends body pair `pair` with its marker pairs `found` (`[i, j]`, sorted by `(i, j)`):
+    /// the sides are the distinct `i`s and `j`s, the pairs their positions.
+    fn push_pair(&mut self, pair: (u32, u32), found: &[[u32; 2]]) {
+        self.pairs.push(pair);
+        // Side a: the i's, already increasing (pairs sorted by (i, j)).
+        let sa = self.side.len();
+        for &[i, _] in found {
+            if self.side.len() == sa || *self.side.last().unwrap() != i {
+                self.side.push(i);
+            }
+        }
+        let sb = self.side.len();
+        // Side b: the j's, sorted and deduplicated in place.
+        self.side.extend(found.iter().map(|e| e[1]));
+        self.side[sb..].sort_unstable();
+        let mut w = sb;
+        for r in sb..self.side.len() {
+            if w == sb || self.side[w - 1] != self.side[r] {
+                self.side[w] = self.side[r];
+                w += 1;
+            }
+        }
+        self.side.truncate(w);
+        self.side_start.push(sb as u32);
+        self.side_start.push(w as u32);
+        let (side_a, side_b) = (&self.side[sa..sb], &self.side[sb..w]);
+        let mut ia = 0;
+        for &[i, j] in found {
+            while side_a[ia] != i {
+                ia += 1;
+            }
+            let jb = side_b.binary_search(&j).expect("j is on side b");
+            self.mpairs.push([ia as u32, jb as u32]);
+        }
+        self.pair_start.push(self.mpairs.len() as u32);
+    }
+
+    /// Appends body `b`'s wall entries `found` (`[i, wall]`, sorted).
+    fn push_walls(&mut self, found: &[[u32; 2]]) {
+        let s0 = self.wside.len();
+        for &[i, w] in found {
+            if self.wside.len() == s0 || *self.wside.last().unwrap() != i {
+                self.wside.push(i);
+            }
+            self.wpairs.push([(self.wside.len() - 1 - s0) as u32, w]);
+        }
+        self.wside_start.push(self.wside.len() as u32);
+        self.wall_start.push(self.wpairs.len() as u32);
+    }
+
+    /// Appends body `b`'s wall entries of another content, unchanged.
+    fn copy_walls(&mut self, from: &Content, b: usize) {
+        self.wside
+            .extend_from_slice(&from.wside[from.wside_start[b] as usize..from.wside_start[b + 1] as usize]);
+        self.wpairs
+            .extend_from_slice(&from.wpairs[from.wall_start[b] as usize..from.wall_start[b + 1] as usize]);
+        self.wside_start.push(self.wside.len() as u32);
+        self.wall_start.push(self.wpairs.len() as u32);
+    }
+}
+
+/// The marker-pair list (module docs).
+///
+/// Per listed body pair it keeps the two **sides** (the markers of `a` and of `b` that occur in
+/// its marker pairs, increasing) and the marker pairs as indices into them; per body, its
+/// markers listed against walls. An evaluation transforms each side into a per-thread buffer
+/// (the body-frame markers are shared by all bodies of a shape and stay in cache) and walks
+/// the pairs: no world-sized table of markers is written or read.
+///
+/// **Per-body references.** Each body has a reference pose (where it was when its entries were
+/// last found); every entry was found at the reference poses of its bodies. A body that has
+/// moved by more than `skin/2` from its reference is *stale*: its entries are found again
+/// ([`PairList::refresh`]) at its current pose (its new reference) against the others'
+/// references, and the rest of the list is kept. An impeller, which turns by a few tenths of a
+/// spacing at its tips every fluid step, is thus refreshed alone, instead of forcing the whole
+/// bed's list to be rebuilt.
+#[derive(Debug)]
+pub(crate) struct PairList {
+    skin: f64,
+    valid: bool,
+    /// Refreshes so far (full or partial).
+    rebuilds: u64,
+    /// Full rebuilds so far.
+    full: u64,
+    /// Each body's reference pose.
+    built: Vec<(Vec3, Mat3)>,
+    cur: Content,
+    spare: Content,
+    /// Per body: whether it is being refreshed (a refresh's buffer).
+    mark: Vec<bool>,
     /// Per rebuild task: its output.
     chunks: Vec<Mutex<ChunkOut>>,
 }
@@ -331,16 +463,11 @@ impl PairList {
             skin,
             valid: false,
             rebuilds: 0,
+            full: 0,
             built: Vec::new(),
-            pairs: Vec::new(),
-            side_start: Vec::new(),
-            side: Vec::new(),
-            pair_start: Vec::new(),
-            mpairs: Vec::new(),
-            wside_start: Vec::new(),
-            wside: Vec::new(),
-            wall_start: Vec::new(),
-            wpairs: Vec::new(),
+            cur: Content::default(),
+            spare: Content::default(),
+            mark: Vec::new(),
             chunks: Vec::new(),
         }
     }
@@ -350,28 +477,52 @@ impl PairList {
         self.skin
     }
 
-    /// Rebuilds so far.
+    /// Refreshes so far (full and partial).
     pub fn rebuilds(&self) -> u64 {
         self.rebuilds
     }
 
-    /// Listed marker pairs and marker–wall pairs.
-    pub fn len(&self) -> (usize, usize) {
-        (self.mpairs.len(), self.wpairs.len())
+    /// Full rebuilds so far.
+    pub fn full_rebuilds(&self) -> u64 {
+        self.full
     }
 
-    /// Whether the list still holds every pair within reach at `poses`: every body has moved
-    /// by at most `skin/2` (module docs) since the build.
-    pub fn covers(&self, poses: &[Pose], radius: &[f64]) -> bool {
-        if !self.valid || poses.len() != self.built.len() {
-            return false;
-        }
+    /// Listed marker pairs and marker–wall pairs.
+    pub fn len(&self) -> (usize, usize) {
+        (self.cur.mpairs.len(), self.cur.wpairs.len())
+    }
+
+    /// The listed body pairs, sorted.
+    pub fn pairs(&self) -> &[(u32, u32)] {
+        &self.cur.pairs
+    }
+
+    /// Whether the list exists for `n` bodies (it was built, for as many bodies).
+    pub fn valid_for(&self, n: usize) -> bool {
+        self.valid && self.built.len() == n
+    }
+
+    /// The bodies (increasing) that have moved by more than `skin/2` from their reference
+    /// poses (module docs), into `out`. Only meaningful when [`PairList::valid_for`].
+    pub fn stale(&self, poses: &[Pose], radius: &[f64], out: &mut Vec<u32>) {
+        out.clear();
         let half = 0.5 * self.skin;
-        poses
-            .iter()
-            .zip(&self.built)
-            .zip(radius)
-            .all(|((p, (c0, r0)), r)| (p.position - c0).norm() + r * (p.rotation - r0).norm() <= half)
+        for (b, ((p, (c0, r0)), r)) in poses.iter().zip(&self.built).zip(radius).enumerate() {
+            if (p.position - c0).norm() + r * (p.rotation - r0).norm() > half {
+                out.push(b as u32);
+            }
+        }
+    }
+
+    /// The reference poses of the bodies (current poses `poses` with each body's reference
+    /// position and rotation), into `out`.
+    pub fn reference_poses(&self, poses: &[Pose], out: &mut Vec<Pose>) {
+        out.clear();
+        out.extend(poses.iter().zip(&self.built).map(|(p, &(position, rotation))| Pose {
+            position,
+            rotation,
+            ..*p
+        }));
     }
 
     /// Total capacity (elements) of the buffers.
@@ -384,31 +535,59 @@ impl PairList {
                 c.counts.capacity() + c.entries.capacity()
             })
             .sum();
-        chunks
-            + self.built.capacity()
-            + self.pairs.capacity()
-            + self.side_start.capacity()
-            + self.side.capacity()
-            + self.pair_start.capacity()
-            + self.mpairs.capacity()
-            + self.wside_start.capacity()
-            + self.wside.capacity()
-            + self.wall_start.capacity()
-            + self.wpairs.capacity()
+        chunks + self.built.capacity() + self.cur.capacity() + self.spare.capacity() + self.mark.capacity()
     }
 
-    /// Rebuilds the list at the narrow phase's poses from the candidate body pairs (the broad
-    /// phase run with the listing range). Deterministic: the candidates are cut into fixed
-    /// chunks, and their outputs are joined in order.
+    /// Rebuilds the whole list at the narrow phase's poses (every body's new reference) from
+    /// the candidate body pairs (the broad phase run with the listing range).
     pub fn rebuild<M: AsRef<[Marker]> + Sync>(
         &mut self,
         narrow: &Narrow<'_, M>,
         candidates: &[(u32, u32)],
         scratch: &[Mutex<Scratch>],
     ) {
-        self.rebuilds += 1;
+        let n = narrow.poses.len();
         self.built.clear();
         self.built.extend(narrow.poses.iter().map(|p| (p.position, p.rotation)));
+        self.mark.clear();
+        self.mark.resize(n, true);
+        self.valid = false;
+        self.full += 1;
+        self.merge(narrow, candidates, scratch);
+    }
+
+    /// Finds again the entries of the `stale` bodies: `narrow.poses` are the reference poses
+    /// with the stale bodies' current poses (their new references), `candidates` every body
+    /// pair that involves a stale body and passes the broad phase at those poses (sorted).
+    /// The other entries are kept. Deterministic: the candidates are cut into fixed chunks and
+    /// the result is merged in body-pair order, as a full rebuild orders it.
+    pub fn refresh<M: AsRef<[Marker]> + Sync>(
+        &mut self,
+        narrow: &Narrow<'_, M>,
+        stale: &[u32],
+        candidates: &[(u32, u32)],
+        scratch: &[Mutex<Scratch>],
+    ) {
+        self.mark.clear();
+        self.mark.resize(narrow.poses.len(), false);
+        for &b in stale {
+            let b = b as usize;
+            self.mark[b] = true;
+            self.built[b] = (narrow.poses[b].position, narrow.poses[b].rotation);
+        }
+        self.merge(narrow, candidates, scratch);
+    }
+
+    /// The narrow phase on `candidates` and on the marked bodies' walls, merged with the
+    /// current content's entries of unmarked bodies into the spare content, which then
+    /// becomes current.
+    fn merge<M: AsRef<[Marker]> + Sync>(
+        &mut self,
+        narrow: &Narrow<'_, M>,
+        candidates: &[(u32, u32)],
+        scratch: &[Mutex<Scratch>],
+    ) {
+        self.rebuilds += 1;
         let n = narrow.poses.len();
         let pair_chunks = candidates.len().div_ceil(CHUNK);
         let body_chunks = n.div_ceil(CHUNK);
@@ -433,81 +612,65 @@ impl PairList {
             narrow.pair(a as usize, b as usize, s, out)
         };
         (0..pair_chunks).into_par_iter().for_each(|k| task(k, &pair, candidates.len()));
-        self.pairs.clear();
-        self.side_start.clear();
-        self.side.clear();
-        self.pair_start.clear();
-        self.mpairs.clear();
-        self.side_start.push(0);
-        self.pair_start.push(0);
-        for k in 0..pair_chunks {
-            let out = self.chunks[k].lock().unwrap_or_else(|e| e.into_inner());
+        let valid = self.valid;
+        let (cur, spare, mark) = (&self.cur, &mut self.spare, &self.mark);
+        spare.clear();
+        // Kept pairs of the current content (no marked body), merged with the found ones:
+        // neither sequence shares a pair with the other, both are sorted.
+        let kept = |k: usize| {
+            let (a, b) = cur.pairs[k];
+            !mark[a as usize] && !mark[b as usize]
+        };
+        let old = if valid { cur.pairs.len() } else { 0 };
+        let mut k = 0;
+        for c in 0..pair_chunks {
+            let out = self.chunks[c].lock().unwrap_or_else(|e| e.into_inner());
             let mut at = 0;
-            for (c, &count) in out.counts.iter().enumerate() {
+            for (i, &count) in out.counts.iter().enumerate() {
                 let count = count as usize;
                 if count > 0 {
-                    self.pairs.push(candidates[k * CHUNK + c]);
-                    let found = &out.entries[at..at + count];
-                    // Side a: the i's, already increasing (pairs sorted by (i, j)).
-                    let sa = self.side.len();
-                    for &[i, _] in found {
-                        if self.side.len() == sa || *self.side.last().unwrap() != i {
-                            self.side.push(i);
+                    let pair = candidates[c * CHUNK + i];
+                    while k < old && cur.pairs[k] < pair {
+                        if kept(k) {
+                            spare.copy_pair(cur, k);
                         }
+                        k += 1;
                     }
-                    let sb = self.side.len();
-                    // Side b: the j's, sorted and deduplicated in place.
-                    self.side.extend(found.iter().map(|e| e[1]));
-                    self.side[sb..].sort_unstable();
-                    let mut w = sb;
-                    for r in sb..self.side.len() {
-                        if w == sb || self.side[w - 1] != self.side[r] {
-                            self.side[w] = self.side[r];
-                            w += 1;
-                        }
-                    }
-                    self.side.truncate(w);
-                    self.side_start.push(sb as u32);
-                    self.side_start.push(w as u32);
-                    let (side_a, side_b) = (&self.side[sa..sb], &self.side[sb..w]);
-                    let mut ia = 0;
-                    for &[i, j] in found {
-                        while side_a[ia] != i {
-                            ia += 1;
-                        }
-                        let jb = side_b.binary_search(&j).expect("j is on side b");
-                        self.mpairs.push([ia as u32, jb as u32]);
-                    }
-                    self.pair_start.push(self.mpairs.len() as u32);
+                    spare.push_pair(pair, &out.entries[at..at + count]);
                 }
                 at += count;
             }
         }
-        // Walls, per body.
-        (0..body_chunks).into_par_iter().for_each(|k| task(k, &|b, s, out| narrow.walls_on(b, s, out), n));
-        self.wside_start.clear();
-        self.wside.clear();
-        self.wall_start.clear();
-        self.wpairs.clear();
-        self.wside_start.push(0);
-        self.wall_start.push(0);
-        for k in 0..body_chunks {
-            let out = self.chunks[k].lock().unwrap_or_else(|e| e.into_inner());
+        while k < old {
+            if kept(k) {
+                spare.copy_pair(cur, k);
+            }
+            k += 1;
+        }
+        // Walls, per body: the marked bodies' found again (in fixed chunks), the others' kept.
+        let walls = |b: usize, s: &mut Scratch, out: &mut Vec<[u32; 2]>| {
+            if mark[b] {
+                narrow.walls_on(b, s, out)
+            } else {
+                0
+            }
+        };
+        (0..body_chunks).into_par_iter().for_each(|k| task(k, &walls, n));
+        for c in 0..body_chunks {
+            let out = self.chunks[c].lock().unwrap_or_else(|e| e.into_inner());
             let mut at = 0;
-            for &count in &out.counts {
+            for (i, &count) in out.counts.iter().enumerate() {
+                let b = c * CHUNK + i;
                 let count = count as usize;
-                let s0 = self.wside.len();
-                for &[i, w] in &out.entries[at..at + count] {
-                    if self.wside.len() == s0 || *self.wside.last().unwrap() != i {
-                        self.wside.push(i);
-                    }
-                    self.wpairs.push([(self.wside.len() - 1 - s0) as u32, w]);
+                if mark[b] || !valid {
+                    spare.push_walls(&out.entries[at..at + count]);
+                } else {
+                    spare.copy_walls(cur, b);
                 }
                 at += count;
-                self.wside_start.push(self.wside.len() as u32);
-                self.wall_start.push(self.wpairs.len() as u32);
             }
         }
+        std::mem::swap(&mut self.cur, &mut self.spare);
         self.valid = true;
     }
 
@@ -526,13 +689,24 @@ impl PairList {
         s: &mut Scratch,
     ) -> Slot {
         let mut slot = Slot::EMPTY;
-        let (a, b) = self.pairs[k];
+        let (a, b) = self.cur.pairs[k];
         let (pa, pb) = (&poses[a as usize], &poses[b as usize]);
-        let sides = &self.side_start[2 * k..2 * k + 3];
-        place(pa, markers[a as usize].as_ref(), &self.side[sides[0] as usize..sides[1] as usize], &mut s.a);
-        place(pb, markers[b as usize].as_ref(), &self.side[sides[1] as usize..sides[2] as usize], &mut s.b);
+        let sides = &self.cur.side_start[2 * k..2 * k + 3];
+        place(
+            pa,
+            markers[a as usize].as_ref(),
+            &self.cur.side[sides[0] as usize..sides[1] as usize],
+            &mut s.a,
+        );
+        place(
+            pb,
+            markers[b as usize].as_ref(),
+            &self.cur.side[sides[1] as usize..sides[2] as usize],
+            &mut s.b,
+        );
         let (wa, wb) = (&s.a, &s.b);
-        for &[i, j] in &self.mpairs[self.pair_start[k] as usize..self.pair_start[k + 1] as usize] {
+        for &[i, j] in &self.cur.mpairs[self.cur.pair_start[k] as usize..self.cur.pair_start[k + 1] as usize]
+        {
             let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
             let (xi, xj) = (pa.position + mi.r, pb.position + mj.r);
             if (xj - xi).norm_squared() < reach2 {
@@ -557,14 +731,14 @@ impl PairList {
         s: &mut Scratch,
     ) -> Slot {
         let mut slot = Slot::EMPTY;
-        let range = self.wall_start[b] as usize..self.wall_start[b + 1] as usize;
+        let range = self.cur.wall_start[b] as usize..self.cur.wall_start[b + 1] as usize;
         if range.is_empty() {
             return slot;
         }
-        let side = &self.wside[self.wside_start[b] as usize..self.wside_start[b + 1] as usize];
+        let side = &self.cur.wside[self.cur.wside_start[b] as usize..self.cur.wside_start[b + 1] as usize];
         place(pose, markers[b].as_ref(), side, &mut s.a);
         let cutoff = p.cutoff();
-        for &[i, w] in &self.wpairs[range] {
+        for &[i, w] in &self.cur.wpairs[range] {
             let (axis, plane, nhat) = &walls[w as usize];
             let m = &s.a[i as usize];
             let x = pose.position + m.r;

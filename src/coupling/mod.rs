@@ -598,6 +598,22 @@ impl<T: Real + Planes> Coupled<T> {
         self.contacts.as_ref().map_or(0, |c| c.list_stats().0)
     }
 
+    /// Sets the skin of the contact pair list ([`Contacts::set_skin`]); no effect without
+    /// contacts. The loads do not depend on it (bitwise), only the cost.
+    ///
+    /// # Panics
+    /// If `skin` is negative or not finite.
+    pub fn set_contact_skin(&mut self, skin: f64) {
+        if let Some(c) = self.contacts.as_mut() {
+            c.set_skin(skin);
+        }
+    }
+
+    /// The contact engine, if the bodies have contacts.
+    pub fn contacts(&self) -> Option<&Contacts> {
+        self.contacts.as_ref()
+    }
+
     /// Restarts the phase timers.
     pub fn reset_timings(&mut self) {
         self.timings = StepTimings::default();

@@ -67,6 +67,13 @@ pub struct CoupledBench {
     pub coupled_mlups: f64,
     /// Rebuilds of the contact pair list during the timed steps.
     pub list_rebuilds: u64,
+    /// Full rebuilds of the contact pair list during the timed steps (the rest of
+    /// `list_rebuilds` refreshed only the bodies that had moved).
+    pub full_rebuilds: u64,
+    /// Marker pairs in the contact pair list after the timed steps (body–body).
+    pub listed_pairs: usize,
+    /// Interacting marker pairs (body–body) in the last contact sub-step.
+    pub interacting_pairs: usize,
 }
 
 /// Measures case `name` at scale `scale` (module docs).
@@ -80,6 +87,7 @@ pub fn bench_case(
     cache: &Path,
     warmup: u64,
     steps: u64,
+    skin: Option<f64>,
     quiet: bool,
 ) -> anyhow::Result<CoupledBench> {
     let pc = super::paper_case(name)?;
@@ -109,11 +117,15 @@ pub fn bench_case(
     bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
     let mut c = Coupled::new(new_fluid()?, bodies, case.coupling_params())
         .map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
+    if let Some(skin) = skin {
+        c.set_contact_skin(skin);
+    }
     for _ in 0..warmup {
         c.step().map_err(|e| anyhow::anyhow!("warm-up step: {e}"))?;
     }
     c.reset_timings();
     let rebuilds0 = c.contact_list_rebuilds();
+    let full0 = c.contacts().map_or(0, |k| k.full_rebuilds());
     for _ in 0..steps {
         c.step().map_err(|e| anyhow::anyhow!("timed step: {e}"))?;
     }
@@ -147,5 +159,8 @@ pub fn bench_case(
         fluid_mlups: nodes / fluid_ms / 1e3,
         coupled_mlups: nodes / step_ms / 1e3,
         list_rebuilds: c.contact_list_rebuilds() - rebuilds0,
+        full_rebuilds: c.contacts().map_or(0, |k| k.full_rebuilds()) - full0,
+        listed_pairs: c.contacts().map_or(0, |k| k.list_stats().1),
+        interacting_pairs: c.contacts().map_or(0, |k| k.stats().marker_pairs),
     })
 }
