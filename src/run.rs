@@ -35,12 +35,12 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, ImpellerSetup, Precision};
-use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
+use crate::coupling::{Coupled, CoupledState, CouplingError};
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
-    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter, BODY_STATE_LEN,
+    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::kernel::Planes;
@@ -146,36 +146,6 @@ fn kept_max_mach(path: &Path) -> f64 {
         return 0.0;
     };
     lines.filter_map(|l| l.split(',').nth(col)?.parse::<f64>().ok()).fold(0.0, f64::max)
-}
-
-/// A body's state as a checkpoint row ([`BODY_STATE_LEN`] numbers; see `io::checkpoint`).
-fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
-    let v = |x: &Vec3| [x.x, x.y, x.z];
-    let mut r = [0.0; BODY_STATE_LEN];
-    r[0..3].copy_from_slice(&v(&b.position));
-    r[3..7].copy_from_slice(&b.orientation);
-    r[7..10].copy_from_slice(&v(&b.velocity));
-    r[10..13].copy_from_slice(&v(&b.angular_velocity));
-    r[13] = b.time;
-    r[14..17].copy_from_slice(&v(&b.change.0));
-    r[17..20].copy_from_slice(&v(&b.change.1));
-    r[20..23].copy_from_slice(&v(&b.contact.0));
-    r[23..26].copy_from_slice(&v(&b.contact.1));
-    r
-}
-
-/// The inverse of [`body_to_row`].
-fn body_from_row(r: &[f64; BODY_STATE_LEN]) -> BodyState {
-    let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
-    BodyState {
-        position: v(0),
-        orientation: [r[3], r[4], r[5], r[6]],
-        velocity: v(7),
-        angular_velocity: v(10),
-        time: r[13],
-        change: (v(14), v(17)),
-        contact: (v(20), v(23)),
-    }
 }
 
 /// The fluid alone, or the fluid coupled with particles.
@@ -386,12 +356,10 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         match &mut solver {
             Solver::Fluid(f) => f.restore(&ck.state).context("cannot restore the checkpoint")?,
             Solver::Coupled(c) => {
-                let rows = ck
+                let bodies = ck
                     .bodies
-                    .as_ref()
                     .ok_or_else(|| BadResume(format!("{} holds no particle states", ck_path.display())))?;
-                let state =
-                    CoupledState { fluid: ck.state, bodies: rows.iter().map(body_from_row).collect() };
+                let state = CoupledState { fluid: ck.state, bodies };
                 // With the force field when the checkpoint has it (outputs at the resumed step
                 // need the velocity's half-force term); older checkpoints restore without.
                 c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
@@ -498,8 +466,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     }
                     Solver::Coupled(c) => {
                         let state = c.snapshot().context("checkpoint at an odd step")?;
-                        let rows: Vec<_> = state.bodies.iter().map(body_to_row).collect();
-                        write_checkpoint(&ck_path, &state.fluid, Some(&rows), &fingerprint)
+                        write_checkpoint(&ck_path, &state.fluid, Some(&state.bodies), &fingerprint)
                     }
                 }
                 .with_context(|| format!("cannot write {}", ck_path.display()))?;
