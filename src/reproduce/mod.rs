@@ -71,6 +71,17 @@ pub fn check_scale(s: f64) -> Result<(), String> {
     ))
 }
 
+/// Checks a number of revolutions after the ramp before anything starts: finite and positive.
+///
+/// # Errors
+/// The message names `--revolutions` and the value.
+pub fn check_revolutions(revolutions: f64) -> Result<(), String> {
+    if revolutions.is_finite() && revolutions > 0.0 {
+        return Ok(());
+    }
+    Err(format!("--revolutions {revolutions}: must be finite and > 0"))
+}
+
 /// The default number of revolutions after the ramp.
 pub const DEFAULT_REVOLUTIONS: f64 = 4.0;
 /// `--quick`: scale (the default's: at 1/5 the random placement cannot fit the paper's 822
@@ -229,9 +240,7 @@ pub struct Schedule {
 /// # Errors
 /// A case without `[impeller]`, or `revolutions` not finite and positive.
 pub fn schedule(c: &Case, revolutions: f64) -> anyhow::Result<Schedule> {
-    if !(revolutions.is_finite() && revolutions > 0.0) {
-        anyhow::bail!("--revolutions = {revolutions}: must be finite and > 0");
-    }
+    check_revolutions(revolutions).map_err(anyhow::Error::msg)?;
     let imp = c.impeller.as_ref().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
     let spr = 1.0 / imp.speed.abs();
     // Even: checkpoints need an even step (the AA pattern's state is complete there).
