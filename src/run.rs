@@ -317,8 +317,8 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let (markers, impeller_markers) = match &solver {
         Solver::Coupled(c) => {
             let total = c.marker_count();
-            let imp = if impeller.is_some() { c.body_marker_count(n_particles) } else { 0 };
-            (total, imp)
+            let impeller_count = if impeller.is_some() { c.body_marker_count(n_particles) } else { 0 };
+            (total, impeller_count)
         }
         Solver::Fluid(_) => (0, 0),
     };
@@ -328,80 +328,86 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let case_path = out_dir.join(files::CASE);
     atomic_write_bytes(&case_path, case_text.as_bytes())
         .with_context(|| format!("cannot write {}", case_path.display()))?;
-    let ts_path = out_dir.join(files::TIMESERIES);
-    let ck_path = out_dir.join(files::CHECKPOINT);
+    let timeseries_path = out_dir.join(files::TIMESERIES);
+    let checkpoint_path = out_dir.join(files::CHECKPOINT);
     let fingerprint = case.fingerprint();
     let mut max_mach_before: f64 = 0.0;
-    let mut ts = if opts.resume {
+    let mut timeseries = if opts.resume {
         let no_checkpoint = || {
             format!(
                 "no checkpoint in {} (the run wrote none yet, or it is not a slurry checkpoint)",
                 out_dir.display()
             )
         };
-        if !ck_path.is_file() {
+        if !checkpoint_path.is_file() {
             return Err(BadResume(no_checkpoint()).into());
         }
-        let ck = read_checkpoint::<T>(&ck_path).map_err(|e| match e.downcast_ref::<PrecisionMismatch>() {
-            Some(p) => BadResume(p.to_string()),
-            None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), ck_path.display())),
+        let checkpoint = read_checkpoint::<T>(&checkpoint_path).map_err(|e| {
+            match e.downcast_ref::<PrecisionMismatch>() {
+                Some(p) => BadResume(p.to_string()),
+                None => BadResume(format!(
+                    "{}: {} cannot be read as one",
+                    no_checkpoint(),
+                    checkpoint_path.display()
+                )),
+            }
         })?;
-        if ck.case != fingerprint {
+        if checkpoint.case != fingerprint {
             return Err(BadResume(format!(
                 "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
-                ck_path.display()
+                checkpoint_path.display()
             ))
             .into());
         }
         match &mut solver {
-            Solver::Fluid(f) => f.restore(&ck.state).context("cannot restore the checkpoint")?,
+            Solver::Fluid(f) => f.restore(&checkpoint.state).context("cannot restore the checkpoint")?,
             Solver::Coupled(c) => {
-                let bodies = ck
-                    .bodies
-                    .ok_or_else(|| BadResume(format!("{} holds no particle states", ck_path.display())))?;
-                let state = CoupledState { fluid: ck.state, bodies };
+                let bodies = checkpoint.bodies.ok_or_else(|| {
+                    BadResume(format!("{} holds no particle states", checkpoint_path.display()))
+                })?;
+                let state = CoupledState { fluid: checkpoint.state, bodies };
                 // With the force field when the checkpoint has it (outputs at the resumed step
                 // need the velocity's half-force term); older checkpoints restore without.
                 c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
             }
         }
-        let ts = TimeSeriesWriter::resume(&ts_path, solver.fluid().time()).map_err(|e| {
+        let timeseries = TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
             BadResume(format!(
                 "cannot resume {}: {e} (the checkpoint is there, the time series is not)",
-                ts_path.display()
+                timeseries_path.display()
             ))
         })?;
         // The largest Mach number of the rows kept (the summary's covers the whole run).
-        max_mach_before = kept_max_mach(&ts_path);
-        ts
+        max_mach_before = kept_max_mach(&timeseries_path);
+        timeseries
     } else {
-        TimeSeriesWriter::create_columns(&ts_path, columns)
-            .with_context(|| format!("cannot write {}", ts_path.display()))?
+        TimeSeriesWriter::create_columns(&timeseries_path, columns)
+            .with_context(|| format!("cannot write {}", timeseries_path.display()))?
     };
-    let ph_path = out_dir.join(files::PARTICLES_H5);
+    let history_path = out_dir.join(files::PARTICLES_H5);
     let mut history = if inits.is_empty() {
         None
     } else {
         let statics = particle_statics(&inits);
         Some(if opts.resume {
-            ParticleHistoryWriter::resume(&ph_path, solver.fluid().time()).map_err(|e| {
+            ParticleHistoryWriter::resume(&history_path, solver.fluid().time()).map_err(|e| {
                 BadResume(format!(
                     "cannot resume {}: {e} (the checkpoint is there, the particle history is not)",
-                    ph_path.display()
+                    history_path.display()
                 ))
             })?
         } else {
-            ParticleHistoryWriter::create(&ph_path, grid, case.gravity(), &statics)
-                .with_context(|| format!("cannot write {}", ph_path.display()))?
+            ParticleHistoryWriter::create(&history_path, grid, case.gravity(), &statics)
+                .with_context(|| format!("cannot write {}", history_path.display()))?
         })
     };
 
-    let limit = case.run.mach_limit;
+    let mach_limit = case.run.mach_limit;
     let total = case.run.steps;
-    let every = case.run.output_every;
-    let ck_every = case.run.checkpoint_every;
-    let pb = progress_bar(total, opts.quiet);
-    pb.set_position(solver.fluid().time());
+    let output_every = case.run.output_every;
+    let checkpoint_every = case.run.checkpoint_every;
+    let progress = progress_bar(total, opts.quiet);
+    progress.set_position(solver.fluid().time());
     let mut step_time = Duration::ZERO;
     let mut max_mach: f64 = max_mach_before;
     let mut rows = 0u64;
@@ -413,18 +419,18 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
     let log_lines = !opts.quiet && !std::io::stderr().is_terminal();
     let mut last_log = Instant::now();
     let mut status = String::new();
-    let (first_step, h) = (solver.fluid().time(), grid.nz as f64);
+    let (first_step, box_height) = (solver.fluid().time(), grid.nz as f64);
 
     loop {
         let fluid = solver.fluid();
         let step = fluid.time();
-        let output_due = step.is_multiple_of(every) || step == total;
-        let checkpoint_due = ck_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
+        let output_due = step.is_multiple_of(output_every) || step == total;
+        let checkpoint_due = checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
         if output_due || checkpoint_due {
-            let health = fluid.health(limit);
+            let health = fluid.health(mach_limit);
             if !health.is_ok() {
-                pb.abandon();
-                return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
+                progress.abandon();
+                return Err(NumericalError { step, last_good, health, timeseries: timeseries_path }.into());
             }
             last_good = step;
             if output_due {
@@ -441,20 +447,23 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                     _ => None,
                 };
                 let particles = frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity));
-                status = progress_status(torques.as_ref(), particles.as_ref(), h);
-                ts.append(&TimeSeriesRow {
-                    step,
-                    time: step as f64,
-                    mass: fluid.total_mass(),
-                    momentum: fluid.total_momentum(),
-                    max_mach: health.max_mach,
-                    mlups: block_mlups,
-                    particles,
-                    impeller: torques,
-                })
-                .with_context(|| format!("cannot write {}", ts_path.display()))?;
-                if let (Some(h), Some(frame)) = (history.as_mut(), frame) {
-                    h.append(&frame).with_context(|| format!("cannot write {}", ph_path.display()))?;
+                status = progress_status(torques.as_ref(), particles.as_ref(), box_height);
+                timeseries
+                    .append(&TimeSeriesRow {
+                        step,
+                        time: step as f64,
+                        mass: fluid.total_mass(),
+                        momentum: fluid.total_momentum(),
+                        max_mach: health.max_mach,
+                        mlups: block_mlups,
+                        particles,
+                        impeller: torques,
+                    })
+                    .with_context(|| format!("cannot write {}", timeseries_path.display()))?;
+                if let (Some(writer), Some(frame)) = (history.as_mut(), frame) {
+                    writer
+                        .append(&frame)
+                        .with_context(|| format!("cannot write {}", history_path.display()))?;
                 }
                 rows += 1;
             }
@@ -462,42 +471,42 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
                 match &solver {
                     Solver::Fluid(f) => {
                         let state = f.snapshot().context("checkpoint at an odd step")?;
-                        write_checkpoint(&ck_path, &state, None, &fingerprint)
+                        write_checkpoint(&checkpoint_path, &state, None, &fingerprint)
                     }
                     Solver::Coupled(c) => {
                         let state = c.snapshot().context("checkpoint at an odd step")?;
-                        write_checkpoint(&ck_path, &state.fluid, Some(&state.bodies), &fingerprint)
+                        write_checkpoint(&checkpoint_path, &state.fluid, Some(&state.bodies), &fingerprint)
                     }
                 }
-                .with_context(|| format!("cannot write {}", ck_path.display()))?;
+                .with_context(|| format!("cannot write {}", checkpoint_path.display()))?;
             }
         }
         if step >= total {
             break;
         }
         // Advance to the next output or checkpoint point.
-        let mut next = (step / every + 1) * every;
-        if let Some(c) = ck_every {
+        let mut next = (step / output_every + 1) * output_every;
+        if let Some(c) = checkpoint_every {
             next = next.min((step / c + 1) * c);
         }
         let block = next.min(total) - step;
-        let t0 = Instant::now();
+        let block_start = Instant::now();
         // On a worker of the pool: the parallel loops of the step then queue their jobs on the
         // worker's own deque instead of rayon's global injector, which allocates (the warm
         // coupled step allocates nothing: tests/no_alloc_in_step.rs).
         if let Err(e) = rayon::scope(|_| solver.run(block)) {
-            pb.abandon();
+            progress.abandon();
             return Err(anyhow::anyhow!(
                 "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
                 next.min(total)
             ));
         }
-        let dt = t0.elapsed();
-        step_time += dt;
-        block_mlups = nodes * block as f64 / dt.as_secs_f64().max(1e-9) / 1e6;
-        pb.set_message(format!("{status}{block_mlups:.1} MLUPS"));
+        let block_time = block_start.elapsed();
+        step_time += block_time;
+        block_mlups = nodes * block as f64 / block_time.as_secs_f64().max(1e-9) / 1e6;
+        progress.set_message(format!("{status}{block_mlups:.1} MLUPS"));
         let now_step = solver.fluid().time();
-        pb.set_position(now_step);
+        progress.set_position(now_step);
         if log_lines && (last_log.elapsed().as_secs_f64() >= 30.0 || now_step >= total) {
             last_log = Instant::now();
             let done = (now_step - first_step) as f64;
@@ -510,20 +519,20 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
             );
         }
     }
-    pb.finish_and_clear();
+    progress.finish_and_clear();
     let fluid = solver.fluid();
-    ts.sync().with_context(|| format!("cannot sync {}", ts_path.display()))?;
+    timeseries.sync().with_context(|| format!("cannot sync {}", timeseries_path.display()))?;
 
     let (rho, u) = fluid.fields();
-    let h5 = out_dir.join(files::FIELDS_H5);
-    write_fields_h5(&h5, grid, fluid.time(), &rho, &u)
-        .with_context(|| format!("cannot write {}", h5.display()))?;
-    let xmf = out_dir.join(files::FIELDS_XMF);
-    write_xdmf(&xmf, grid, fluid.time(), files::FIELDS_H5)
-        .with_context(|| format!("cannot write {}", xmf.display()))?;
+    let fields_path = out_dir.join(files::FIELDS_H5);
+    write_fields_h5(&fields_path, grid, fluid.time(), &rho, &u)
+        .with_context(|| format!("cannot write {}", fields_path.display()))?;
+    let xdmf_path = out_dir.join(files::FIELDS_XMF);
+    write_xdmf(&xdmf_path, grid, fluid.time(), files::FIELDS_H5)
+        .with_context(|| format!("cannot write {}", xdmf_path.display()))?;
 
     let final_mass = fluid.total_mass();
-    let step_s = step_time.as_secs_f64();
+    let step_seconds = step_time.as_secs_f64();
     let summary = RunSummary {
         steps: fluid.time(),
         grid,
@@ -531,9 +540,13 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
         isa: fluid.isa().name().to_string(),
         threads: rayon::current_num_threads(),
         wall_time_s: start.elapsed().as_secs_f64(),
-        step_time_s: step_s,
+        step_time_s: step_seconds,
         // Over the steps of this session (a resumed run counts from its checkpoint).
-        mlups: if step_s > 0.0 { nodes * (fluid.time() - first_step) as f64 / step_s / 1e6 } else { 0.0 },
+        mlups: if step_seconds > 0.0 {
+            nodes * (fluid.time() - first_step) as f64 / step_seconds / 1e6
+        } else {
+            0.0
+        },
         initial_mass,
         final_mass,
         relative_mass_change: (final_mass - initial_mass) / initial_mass,
