@@ -25,7 +25,7 @@
 //! - [`run`]: driving a case from start to output;
 //! - [`settle`]: settling a case's particles to a bed (in the fluid, or dry for the
 //!   reproduction);
-//! - [`bench`]: the fused kernel's throughput;
+//! - [`bench`](mod@bench): the fused kernel's throughput;
 //! - [`plot`]: PNG and SVG figures (field images with a colour bar, x–y line plots) with a
 //!   bundled font;
 //! - [`stats`]: the paper's particle statistics (mean height, solids volume fraction,

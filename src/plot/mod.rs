@@ -119,7 +119,7 @@ const LABEL_FONT: f64 = 16.0;
 const TICK_FONT: f64 = 13.0;
 
 /// Registers the bundled font with plotters once per process (its own text layout is
-/// not used for drawing, see [`Canvas`], but the font must exist for plotters' styles).
+/// not used for drawing, see [`canvas::Canvas`], but the font must exist for plotters' styles).
 fn ensure_font() -> Result<(), String> {
     static REGISTERED: OnceLock<bool> = OnceLock::new();
     let registered =
