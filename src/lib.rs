@@ -7,16 +7,25 @@
 //!
 //! Everything in the core runs in lattice units (Δx = Δt = 1, ρ_fluid = 1).
 //!
-//! Module map (see `ARCHITECTURE.md`):
+//! Module map (see `ARCHITECTURE.md`, whose module table says which module may use which;
+//! `cargo xtask tidy` checks the imports against it):
 //! - [`lattice`]: the velocity set and the grid;
+//! - [`util`]: seeded random numbers, compensated summation, number formatting;
 //! - [`lbm`]: the fluid solver (knows nothing of particles);
-//! - [`rigid`]: rigid bodies, shapes and surface markers, quaternion integration (knows
-//!   nothing of the fluid);
 //! - [`ibm`]: immersed-boundary transfer: delta kernels, marker stencils, interpolation and
 //!   spreading as an adjoint pair (knows nothing of the fluid solver);
+//! - [`rigid`]: rigid bodies, shapes and surface markers, quaternion integration (knows
+//!   nothing of the fluid);
+//! - [`contact`]: the paper's contact and lubrication laws between surface markers and with the
+//!   walls, the marker-pair list, sub-cycled body updates (knows only [`rigid`]);
+//! - [`coupling`]: the coupled step, the only module that knows both the fluid and the
+//!   particles;
 //! - [`case`]: case files (TOML) and their validation;
-//! - [`io`]: HDF5/XDMF fields, CSV time series, atomic writes;
+//! - [`io`]: HDF5/XDMF fields, CSV time series, checkpoints, particle histories, atomic writes;
 //! - [`run`]: driving a case from start to output;
+//! - [`settle`]: settling a case's particles to a bed (in the fluid, or dry for the
+//!   reproduction);
+//! - [`bench`](mod@bench): the fused kernel's throughput;
 //! - [`plot`]: PNG and SVG figures (field images with a colour bar, x–y line plots) with a
 //!   bundled font;
 //! - [`stats`]: the paper's particle statistics (mean height, solids volume fraction,

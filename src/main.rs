@@ -19,9 +19,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::{Args, Parser, Subcommand};
 
-use slurry::case::{Case, CaseError, InitialKind};
-use slurry::lattice::Face;
-use slurry::lbm::Collision;
+use slurry::case::{Case, CaseError};
 use slurry::run::{run_case, RunOptions};
 use slurry::settle::{settle_case, SettleOptions};
 
@@ -434,12 +432,9 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     } else {
         reproduce::DEFAULT_REVOLUTIONS
     });
-    if let Err(e) = reproduce::check_scale(scale) {
-        return Err(BadInput(e).into());
-    }
-    if !(revolutions.is_finite() && revolutions > 0.0) {
-        return Err(BadInput(format!("--revolutions {revolutions}: must be finite and > 0")).into());
-    }
+    reproduce::check_scale(scale)
+        .and_then(|()| reproduce::check_revolutions(revolutions))
+        .map_err(BadInput)?;
     let pool = thread_pool(a.threads)?;
     let root = PathBuf::from("target").join("reproduce");
     let cache = a.cache.clone().unwrap_or_else(|| root.join("cache"));
@@ -487,129 +482,9 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
 
 fn cmd_check(a: CheckArgs) -> anyhow::Result<()> {
     let case = Case::from_file(&a.case)?;
-    print!("{}", describe(&case));
+    print!("{}", case.describe());
     println!("{}: ok", a.case.display());
     Ok(())
-}
-
-/// A human-readable summary of a valid case.
-fn describe(c: &Case) -> String {
-    use std::fmt::Write as _;
-    let mut s = String::new();
-    let g = c.grid();
-    let padded = (g.nx + 2) * (g.ny + 2) * (g.nz + 2);
-    let bytes = padded * 19 * c.fluid.precision.bytes();
-    let _ = writeln!(
-        s,
-        "grid        {} x {} x {} = {} nodes ({} precision, ~{:.1} MiB of populations)",
-        g.nx,
-        g.ny,
-        g.nz,
-        g.nodes(),
-        c.fluid.precision.name(),
-        bytes as f64 / (1024.0 * 1024.0)
-    );
-    let p = c.fluid_params();
-    let model = match p.collision {
-        Collision::Bgk => "BGK".to_string(),
-        Collision::Trt { magic } => format!("TRT (magic {magic})"),
-    };
-    let _ = writeln!(s, "fluid       nu = {}, tau = {}, {model}", p.nu, p.tau());
-    let _ = writeln!(s, "body force  [{}, {}, {}]", p.body_force[0], p.body_force[1], p.body_force[2]);
-    for face in Face::ALL {
-        let b = c.boundaries.get(face);
-        let _ = write!(s, "{:<11} {b}", face.name());
-        if let slurry::case::BoundarySpec::MovingWall(v) = b {
-            let _ = write!(s, "  (wall Mach {:.4})", slurry::case::mach(v));
-        }
-        s.push('\n');
-    }
-    match c.initial.kind {
-        InitialKind::Uniform => {
-            let v = c.initial.velocity.unwrap_or([0.0; 3]);
-            let _ = writeln!(
-                s,
-                "initial     uniform, density {}, velocity [{}, {}, {}]",
-                c.initial.density, v[0], v[1], v[2]
-            );
-        }
-        InitialKind::TaylorGreen => {
-            let _ = writeln!(
-                s,
-                "initial     Taylor-Green, density {}, amplitude {}",
-                c.initial.density,
-                c.initial.amplitude.unwrap_or(0.0)
-            );
-        }
-    }
-    if c.has_particles() {
-        let g = c.gravity();
-        let _ = writeln!(s, "gravity     [{}, {}, {}]", g[0], g[1], g[2]);
-        let ibm = c.ibm();
-        let _ = writeln!(
-            s,
-            "ibm         {} kernel, {} forcing iteration(s), marker spacing {}",
-            ibm.kernel.name(),
-            ibm.iterations,
-            ibm.marker_spacing
-        );
-        for (i, p) in c.particles.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "particle    [{i}] {} d {}{}, density {}, at [{}, {}, {}], {}",
-                p.shape.name(),
-                p.diameter,
-                p.length.map(|l| format!(" l {l}")).unwrap_or_default(),
-                p.density,
-                p.position[0],
-                p.position[1],
-                p.position[2],
-                p.motion.name()
-            );
-        }
-        for (k, r) in c.random_particles.iter().enumerate() {
-            let _ = writeln!(
-                s,
-                "random      [{k}] {} x {} d {}{}, density {}, seed {}, clearance {}, {}",
-                c.random_count(k),
-                r.shape.name(),
-                r.diameter,
-                r.length.map(|l| format!(" l {l}")).unwrap_or_default(),
-                r.density,
-                r.seed,
-                r.clearance,
-                r.motion.name()
-            );
-        }
-        if let Ok(inits) = c.particle_inits() {
-            let solids: f64 = inits.iter().map(|p| p.volume()).sum();
-            let _ = writeln!(
-                s,
-                "particles   {} in all, solids volume fraction {:.4} of the box",
-                inits.len(),
-                solids / g_nodes(c)
-            );
-        }
-    }
-    let est = slurry::case::memory::MemoryEstimate::of(c);
-    let limit = slurry::case::memory::available_memory()
-        .map(|l| format!("{} available ({})", slurry::case::memory::fmt_bytes(l.bytes), l.source))
-        .unwrap_or_else(|| "available memory unknown".into());
-    let _ = writeln!(s, "memory      about {}; {limit}", est.describe());
-    let _ = writeln!(
-        s,
-        "run         {} steps, output every {} ({} rows), Mach limit {}",
-        c.run.steps,
-        c.run.output_every,
-        c.output_rows(),
-        c.run.mach_limit
-    );
-    s
-}
-
-/// Box volume `nx ny nz` (lattice units).
-fn g_nodes(c: &Case) -> f64 {
-    c.grid().nodes() as f64
 }
 
 fn parse_size(s: &str) -> anyhow::Result<slurry::lattice::Grid> {

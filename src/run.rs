@@ -35,12 +35,12 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, ImpellerSetup, Precision};
-use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
+use crate::coupling::{Coupled, CoupledState, CouplingError};
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
-    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter, BODY_STATE_LEN,
+    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::kernel::Planes;
@@ -146,36 +146,6 @@ fn kept_max_mach(path: &Path) -> f64 {
         return 0.0;
     };
     lines.filter_map(|l| l.split(',').nth(col)?.parse::<f64>().ok()).fold(0.0, f64::max)
-}
-
-/// A body's state as a checkpoint row ([`BODY_STATE_LEN`] numbers; see `io::checkpoint`).
-fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
-    let v = |x: &Vec3| [x.x, x.y, x.z];
-    let mut r = [0.0; BODY_STATE_LEN];
-    r[0..3].copy_from_slice(&v(&b.position));
-    r[3..7].copy_from_slice(&b.orientation);
-    r[7..10].copy_from_slice(&v(&b.velocity));
-    r[10..13].copy_from_slice(&v(&b.angular_velocity));
-    r[13] = b.time;
-    r[14..17].copy_from_slice(&v(&b.change.0));
-    r[17..20].copy_from_slice(&v(&b.change.1));
-    r[20..23].copy_from_slice(&v(&b.contact.0));
-    r[23..26].copy_from_slice(&v(&b.contact.1));
-    r
-}
-
-/// The inverse of [`body_to_row`].
-fn body_from_row(r: &[f64; BODY_STATE_LEN]) -> BodyState {
-    let v = |k: usize| Vec3::new(r[k], r[k + 1], r[k + 2]);
-    BodyState {
-        position: v(0),
-        orientation: [r[3], r[4], r[5], r[6]],
-        velocity: v(7),
-        angular_velocity: v(10),
-        time: r[13],
-        change: (v(14), v(17)),
-        contact: (v(20), v(23)),
-    }
 }
 
 /// The fluid alone, or the fluid coupled with particles.
@@ -321,266 +291,369 @@ fn progress_bar(steps: u64, quiet: bool) -> ProgressBar {
     pb
 }
 
+/// Runs a case whose storage precision is `T`: set-up (or resume), the stepping loop, the final
+/// output.
 fn run_typed<T: Real + Planes + hdf5::H5Type>(
     case: &Case,
     out_dir: &Path,
     opts: RunOptions,
 ) -> anyhow::Result<RunSummary> {
     let start = Instant::now();
-    let grid = case.grid();
-    let nodes = grid.nodes() as f64;
-    let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    let n_particles = inits.len();
-    let mut fluid =
-        Fluid::<T>::new(grid, case.fluid_params(), case.boundaries()).context("cannot set up the fluid")?;
-    fluid.initialize(|x, y, z| case.initial_state(x, y, z));
-    let mut solver = if inits.is_empty() && impeller.is_none() {
-        Solver::Fluid(Box::new(fluid))
-    } else {
-        let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
-        bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
-        let coupled = Coupled::new(fluid, bodies, case.coupling_params())
-            .map_err(|e| anyhow::anyhow!("cannot couple the particles and the impeller: {e}"))?;
-        Solver::Coupled(Box::new(coupled))
-    };
-    let (markers, impeller_markers) = match &solver {
-        Solver::Coupled(c) => {
-            let total = c.marker_count();
-            let imp = if impeller.is_some() { c.body_marker_count(n_particles) } else { 0 };
-            (total, imp)
-        }
-        Solver::Fluid(_) => (0, 0),
-    };
-    let columns = Columns { particles: n_particles > 0, impeller: impeller.is_some() };
+    let mut session = Session::<T>::start(case, out_dir, opts)?;
+    let stepped = session.step_to_end(opts.quiet, start)?;
+    session.finish(&stepped, start)
+}
 
-    let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
-    let case_path = out_dir.join(files::CASE);
-    atomic_write_bytes(&case_path, case_text.as_bytes())
-        .with_context(|| format!("cannot write {}", case_path.display()))?;
-    let ts_path = out_dir.join(files::TIMESERIES);
-    let ck_path = out_dir.join(files::CHECKPOINT);
-    let fingerprint = case.fingerprint();
-    let mut max_mach_before: f64 = 0.0;
-    let mut ts = if opts.resume {
-        let no_checkpoint = || {
-            format!(
-                "no checkpoint in {} (the run wrote none yet, or it is not a slurry checkpoint)",
-                out_dir.display()
-            )
+/// A run in progress: the solver, the open output files and what the summary reports.
+struct Session<'a, T: Real + Planes> {
+    case: &'a Case,
+    out_dir: &'a Path,
+    solver: Solver<T>,
+    /// The impeller, the body after the particles.
+    impeller: Option<ImpellerSetup>,
+    particles: usize,
+    markers: usize,
+    impeller_markers: usize,
+    fingerprint: String,
+    timeseries: TimeSeriesWriter,
+    timeseries_path: PathBuf,
+    /// `particles.h5`, with particles.
+    history: Option<ParticleHistoryWriter>,
+    history_path: PathBuf,
+    checkpoint_path: PathBuf,
+    /// The largest Mach number of the time-series rows a resume kept.
+    max_mach_before: f64,
+    /// The checkpoint's step when this session resumed.
+    resumed_at: Option<u64>,
+}
+
+/// What the stepping loop measured, for the summary.
+struct Stepped {
+    first_step: u64,
+    step_time: Duration,
+    max_mach: f64,
+    rows: u64,
+    initial_mass: f64,
+}
+
+impl<'a, T: Real + Planes + hdf5::H5Type> Session<'a, T> {
+    /// The solver at step 0 or restored from the checkpoint, `case.toml` written, the time
+    /// series and the particle history created or cut back to the checkpoint's step.
+    fn start(case: &'a Case, out_dir: &'a Path, opts: RunOptions) -> anyhow::Result<Self> {
+        let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+        let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+        let particles = inits.len();
+        let mut fluid = Fluid::<T>::new(case.grid(), case.fluid_params(), case.boundaries())
+            .context("cannot set up the fluid")?;
+        fluid.initialize(|x, y, z| case.initial_state(x, y, z));
+        let mut solver = if inits.is_empty() && impeller.is_none() {
+            Solver::Fluid(Box::new(fluid))
+        } else {
+            let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
+            bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
+            let coupled = Coupled::new(fluid, bodies, case.coupling_params())
+                .map_err(|e| anyhow::anyhow!("cannot couple the particles and the impeller: {e}"))?;
+            Solver::Coupled(Box::new(coupled))
         };
-        if !ck_path.is_file() {
-            return Err(BadResume(no_checkpoint()).into());
-        }
-        let ck = read_checkpoint::<T>(&ck_path).map_err(|e| match e.downcast_ref::<PrecisionMismatch>() {
-            Some(p) => BadResume(p.to_string()),
-            None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), ck_path.display())),
-        })?;
-        if ck.case != fingerprint {
-            return Err(BadResume(format!(
-                "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
-                ck_path.display()
-            ))
-            .into());
-        }
-        match &mut solver {
-            Solver::Fluid(f) => f.restore(&ck.state).context("cannot restore the checkpoint")?,
+        let (markers, impeller_markers) = match &solver {
             Solver::Coupled(c) => {
-                let rows = ck
-                    .bodies
-                    .as_ref()
-                    .ok_or_else(|| BadResume(format!("{} holds no particle states", ck_path.display())))?;
-                let state =
-                    CoupledState { fluid: ck.state, bodies: rows.iter().map(body_from_row).collect() };
-                // With the force field when the checkpoint has it (outputs at the resumed step
-                // need the velocity's half-force term); older checkpoints restore without.
-                c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+                let impeller_count = if impeller.is_some() { c.body_marker_count(particles) } else { 0 };
+                (c.marker_count(), impeller_count)
             }
-        }
-        let ts = TimeSeriesWriter::resume(&ts_path, solver.fluid().time()).map_err(|e| {
-            BadResume(format!(
-                "cannot resume {}: {e} (the checkpoint is there, the time series is not)",
-                ts_path.display()
-            ))
-        })?;
-        // The largest Mach number of the rows kept (the summary's covers the whole run).
-        max_mach_before = kept_max_mach(&ts_path);
-        ts
-    } else {
-        TimeSeriesWriter::create_columns(&ts_path, columns)
-            .with_context(|| format!("cannot write {}", ts_path.display()))?
-    };
-    let ph_path = out_dir.join(files::PARTICLES_H5);
-    let mut history = if inits.is_empty() {
-        None
-    } else {
-        let statics = particle_statics(&inits);
-        Some(if opts.resume {
-            ParticleHistoryWriter::resume(&ph_path, solver.fluid().time()).map_err(|e| {
+            Solver::Fluid(_) => (0, 0),
+        };
+
+        let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
+        let case_path = out_dir.join(files::CASE);
+        atomic_write_bytes(&case_path, case_text.as_bytes())
+            .with_context(|| format!("cannot write {}", case_path.display()))?;
+        let timeseries_path = out_dir.join(files::TIMESERIES);
+        let checkpoint_path = out_dir.join(files::CHECKPOINT);
+        let history_path = out_dir.join(files::PARTICLES_H5);
+        let fingerprint = case.fingerprint();
+        let columns = Columns { particles: particles > 0, impeller: impeller.is_some() };
+        let (timeseries, max_mach_before) = if opts.resume {
+            restore(&mut solver, &checkpoint_path, &fingerprint, out_dir)?;
+            let timeseries =
+                TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
+                    BadResume(format!(
+                        "cannot resume {}: {e} (the checkpoint is there, the time series is not)",
+                        timeseries_path.display()
+                    ))
+                })?;
+            // The largest Mach number of the rows kept (the summary's covers the whole run).
+            (timeseries, kept_max_mach(&timeseries_path))
+        } else {
+            let timeseries = TimeSeriesWriter::create_columns(&timeseries_path, columns)
+                .with_context(|| format!("cannot write {}", timeseries_path.display()))?;
+            (timeseries, 0.0)
+        };
+        let history = if inits.is_empty() {
+            None
+        } else if opts.resume {
+            Some(ParticleHistoryWriter::resume(&history_path, solver.fluid().time()).map_err(|e| {
                 BadResume(format!(
                     "cannot resume {}: {e} (the checkpoint is there, the particle history is not)",
-                    ph_path.display()
+                    history_path.display()
                 ))
-            })?
+            })?)
         } else {
-            ParticleHistoryWriter::create(&ph_path, grid, case.gravity(), &statics)
-                .with_context(|| format!("cannot write {}", ph_path.display()))?
+            let statics = particle_statics(&inits);
+            Some(
+                ParticleHistoryWriter::create(&history_path, case.grid(), case.gravity(), &statics)
+                    .with_context(|| format!("cannot write {}", history_path.display()))?,
+            )
+        };
+        let resumed_at = opts.resume.then(|| solver.fluid().time());
+        Ok(Self {
+            case,
+            out_dir,
+            solver,
+            impeller,
+            particles,
+            markers,
+            impeller_markers,
+            fingerprint,
+            timeseries,
+            timeseries_path,
+            history,
+            history_path,
+            checkpoint_path,
+            max_mach_before,
+            resumed_at,
         })
+    }
+
+    /// Steps in blocks to the end of the run; at each output step a health check, a time-series
+    /// row and a particle frame, at each checkpoint step a checkpoint (not again at the step a
+    /// resume starts from). Progress on the bar, or a line every 30 s when stderr is not a
+    /// terminal.
+    fn step_to_end(&mut self, quiet: bool, start: Instant) -> anyhow::Result<Stepped> {
+        let nodes = self.case.grid().nodes() as f64;
+        let mach_limit = self.case.run.mach_limit;
+        let total = self.case.run.steps;
+        let output_every = self.case.run.output_every;
+        let checkpoint_every = self.case.run.checkpoint_every;
+        let progress = progress_bar(total, quiet);
+        progress.set_position(self.solver.fluid().time());
+        let first_step = self.solver.fluid().time();
+        let mut stepped = Stepped {
+            first_step,
+            step_time: Duration::ZERO,
+            max_mach: self.max_mach_before,
+            rows: 0,
+            initial_mass: f64::NAN,
+        };
+        let mut last_good = first_step;
+        let mut block_mlups = 0.0;
+        let log_lines = !quiet && !std::io::stderr().is_terminal();
+        let mut last_log = Instant::now();
+        let mut status = String::new();
+
+        loop {
+            let fluid = self.solver.fluid();
+            let step = fluid.time();
+            let output_due = step.is_multiple_of(output_every) || step == total;
+            let checkpoint_due = checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
+            if output_due || checkpoint_due {
+                let health = fluid.health(mach_limit);
+                if !health.is_ok() {
+                    progress.abandon();
+                    let timeseries = self.timeseries_path.clone();
+                    return Err(NumericalError { step, last_good, health, timeseries }.into());
+                }
+                last_good = step;
+                if output_due {
+                    stepped.max_mach = stepped.max_mach.max(health.max_mach);
+                }
+                if step == 0 || (self.resumed_at == Some(step) && stepped.initial_mass.is_nan()) {
+                    stepped.initial_mass = fluid.total_mass();
+                }
+                // The row of the step a resume starts from is already in the time series.
+                if output_due && self.resumed_at != Some(step) {
+                    status = self.write_output_row(step, health.max_mach, block_mlups)?;
+                    stepped.rows += 1;
+                }
+                if checkpoint_due && self.resumed_at != Some(step) {
+                    self.write_checkpoint()?;
+                }
+            }
+            if step >= total {
+                break;
+            }
+            // Advance to the next output or checkpoint point.
+            let mut next = (step / output_every + 1) * output_every;
+            if let Some(c) = checkpoint_every {
+                next = next.min((step / c + 1) * c);
+            }
+            let block = next.min(total) - step;
+            let block_start = Instant::now();
+            // On a worker of the pool: the parallel loops of the step then queue their jobs on
+            // the worker's own deque instead of rayon's global injector, which allocates (the
+            // warm coupled step allocates nothing: tests/no_alloc_in_step.rs).
+            if let Err(e) = rayon::scope(|_| self.solver.run(block)) {
+                progress.abandon();
+                return Err(anyhow::anyhow!(
+                    "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
+                    next.min(total)
+                ));
+            }
+            let block_time = block_start.elapsed();
+            stepped.step_time += block_time;
+            block_mlups = nodes * block as f64 / block_time.as_secs_f64().max(1e-9) / 1e6;
+            progress.set_message(format!("{status}{block_mlups:.1} MLUPS"));
+            let now_step = self.solver.fluid().time();
+            progress.set_position(now_step);
+            if log_lines && (last_log.elapsed().as_secs_f64() >= 30.0 || now_step >= total) {
+                last_log = Instant::now();
+                let done = (now_step - first_step) as f64;
+                let left = stepped.step_time.as_secs_f64() / done.max(1.0) * (total - now_step) as f64;
+                eprintln!(
+                    "step {now_step}/{total} ({:.0} %), {status}{block_mlups:.1} MLUPS, {:.0} s elapsed, about {:.0} s left",
+                    100.0 * now_step as f64 / total.max(1) as f64,
+                    start.elapsed().as_secs_f64(),
+                    left
+                );
+            }
+        }
+        progress.finish_and_clear();
+        Ok(stepped)
+    }
+
+    /// The time-series row of output step `step` and the particles' frame; returns the
+    /// progress message of the step.
+    fn write_output_row(&mut self, step: u64, max_mach: f64, block_mlups: f64) -> anyhow::Result<String> {
+        let box_height = self.case.grid().nz as f64;
+        let frame = self.solver.particle_frame(self.particles);
+        let torques = match (&self.solver, &self.impeller) {
+            (Solver::Coupled(c), Some(s)) => Some(impeller_torques(c, self.particles, s)),
+            _ => None,
+        };
+        let particles = frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity));
+        let status = progress_status(torques.as_ref(), particles.as_ref(), box_height);
+        let fluid = self.solver.fluid();
+        self.timeseries
+            .append(&TimeSeriesRow {
+                step,
+                time: step as f64,
+                mass: fluid.total_mass(),
+                momentum: fluid.total_momentum(),
+                max_mach,
+                mlups: block_mlups,
+                particles,
+                impeller: torques,
+            })
+            .with_context(|| format!("cannot write {}", self.timeseries_path.display()))?;
+        if let (Some(writer), Some(frame)) = (self.history.as_mut(), frame) {
+            writer.append(&frame).with_context(|| format!("cannot write {}", self.history_path.display()))?;
+        }
+        Ok(status)
+    }
+
+    /// The checkpoint of the present (even) step, with the bodies' states when coupled.
+    fn write_checkpoint(&self) -> anyhow::Result<()> {
+        match &self.solver {
+            Solver::Fluid(f) => {
+                let state = f.snapshot().context("checkpoint at an odd step")?;
+                write_checkpoint(&self.checkpoint_path, &state, None, &self.fingerprint)
+            }
+            Solver::Coupled(c) => {
+                let state = c.snapshot().context("checkpoint at an odd step")?;
+                write_checkpoint(&self.checkpoint_path, &state.fluid, Some(&state.bodies), &self.fingerprint)
+            }
+        }
+        .with_context(|| format!("cannot write {}", self.checkpoint_path.display()))
+    }
+
+    /// The time series synced, `fields.h5` and `fields.xmf` of the last step, and the summary
+    /// (also written as `summary.json`).
+    fn finish(self, stepped: &Stepped, start: Instant) -> anyhow::Result<RunSummary> {
+        self.timeseries.sync().with_context(|| format!("cannot sync {}", self.timeseries_path.display()))?;
+        let fluid = self.solver.fluid();
+        let grid = self.case.grid();
+        let (rho, u) = fluid.fields();
+        let fields_path = self.out_dir.join(files::FIELDS_H5);
+        write_fields_h5(&fields_path, grid, fluid.time(), &rho, &u)
+            .with_context(|| format!("cannot write {}", fields_path.display()))?;
+        let xdmf_path = self.out_dir.join(files::FIELDS_XMF);
+        write_xdmf(&xdmf_path, grid, fluid.time(), files::FIELDS_H5)
+            .with_context(|| format!("cannot write {}", xdmf_path.display()))?;
+
+        let final_mass = fluid.total_mass();
+        let step_seconds = stepped.step_time.as_secs_f64();
+        let initial_mass = stepped.initial_mass;
+        let summary = RunSummary {
+            steps: fluid.time(),
+            grid,
+            precision: T::NAME,
+            isa: fluid.isa().name().to_string(),
+            threads: rayon::current_num_threads(),
+            wall_time_s: start.elapsed().as_secs_f64(),
+            step_time_s: step_seconds,
+            // Over the steps of this session (a resumed run counts from its checkpoint).
+            mlups: if step_seconds > 0.0 {
+                grid.nodes() as f64 * (fluid.time() - stepped.first_step) as f64 / step_seconds / 1e6
+            } else {
+                0.0
+            },
+            initial_mass,
+            final_mass,
+            relative_mass_change: (final_mass - initial_mass) / initial_mass,
+            final_momentum: fluid.total_momentum(),
+            max_mach: stepped.max_mach,
+            output_rows: stepped.rows,
+            particles: self.particles,
+            markers: self.markers,
+            impeller_markers: self.impeller_markers,
+            resumed_from: self.resumed_at,
+        };
+        let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
+        let summary_path = self.out_dir.join(files::SUMMARY);
+        atomic_write_bytes(&summary_path, format!("{json}\n").as_bytes())
+            .with_context(|| format!("cannot write {}", summary_path.display()))?;
+        Ok(summary)
+    }
+}
+
+/// Restores `solver` from the checkpoint at `path`, which must have been written for the case
+/// with `fingerprint` (and, for a coupled solver, hold the bodies' states).
+fn restore<T: Real + Planes + hdf5::H5Type>(
+    solver: &mut Solver<T>,
+    path: &Path,
+    fingerprint: &str,
+    out_dir: &Path,
+) -> anyhow::Result<()> {
+    let no_checkpoint = || {
+        format!(
+            "no checkpoint in {} (the run wrote none yet, or it is not a slurry checkpoint)",
+            out_dir.display()
+        )
     };
-
-    let limit = case.run.mach_limit;
-    let total = case.run.steps;
-    let every = case.run.output_every;
-    let ck_every = case.run.checkpoint_every;
-    let pb = progress_bar(total, opts.quiet);
-    pb.set_position(solver.fluid().time());
-    let mut step_time = Duration::ZERO;
-    let mut max_mach: f64 = max_mach_before;
-    let mut rows = 0u64;
-    let mut last_good = solver.fluid().time();
-    let mut initial_mass = f64::NAN;
-    let mut block_mlups = 0.0;
-    let resumed_at = opts.resume.then(|| solver.fluid().time());
-    // Progress: the bar's message, or (stderr not a terminal) a line every 30 s.
-    let log_lines = !opts.quiet && !std::io::stderr().is_terminal();
-    let mut last_log = Instant::now();
-    let mut status = String::new();
-    let (first_step, h) = (solver.fluid().time(), grid.nz as f64);
-
-    loop {
-        let fluid = solver.fluid();
-        let step = fluid.time();
-        let output_due = step.is_multiple_of(every) || step == total;
-        let checkpoint_due = ck_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
-        if output_due || checkpoint_due {
-            let health = fluid.health(limit);
-            if !health.is_ok() {
-                pb.abandon();
-                return Err(NumericalError { step, last_good, health, timeseries: ts_path }.into());
-            }
-            last_good = step;
-            if output_due {
-                max_mach = max_mach.max(health.max_mach);
-            }
-            if step == 0 || (resumed_at == Some(step) && initial_mass.is_nan()) {
-                initial_mass = fluid.total_mass();
-            }
-            // The row of the step a resume starts from is already in the time series.
-            if output_due && resumed_at != Some(step) {
-                let frame = solver.particle_frame(n_particles);
-                let torques = match (&solver, &impeller) {
-                    (Solver::Coupled(c), Some(s)) => Some(impeller_torques(c, n_particles, s)),
-                    _ => None,
-                };
-                let particles = frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity));
-                status = progress_status(torques.as_ref(), particles.as_ref(), h);
-                ts.append(&TimeSeriesRow {
-                    step,
-                    time: step as f64,
-                    mass: fluid.total_mass(),
-                    momentum: fluid.total_momentum(),
-                    max_mach: health.max_mach,
-                    mlups: block_mlups,
-                    particles,
-                    impeller: torques,
-                })
-                .with_context(|| format!("cannot write {}", ts_path.display()))?;
-                if let (Some(h), Some(frame)) = (history.as_mut(), frame) {
-                    h.append(&frame).with_context(|| format!("cannot write {}", ph_path.display()))?;
-                }
-                rows += 1;
-            }
-            if checkpoint_due && resumed_at != Some(step) {
-                match &solver {
-                    Solver::Fluid(f) => {
-                        let state = f.snapshot().context("checkpoint at an odd step")?;
-                        write_checkpoint(&ck_path, &state, None, &fingerprint)
-                    }
-                    Solver::Coupled(c) => {
-                        let state = c.snapshot().context("checkpoint at an odd step")?;
-                        let rows: Vec<_> = state.bodies.iter().map(body_to_row).collect();
-                        write_checkpoint(&ck_path, &state.fluid, Some(&rows), &fingerprint)
-                    }
-                }
-                .with_context(|| format!("cannot write {}", ck_path.display()))?;
-            }
-        }
-        if step >= total {
-            break;
-        }
-        // Advance to the next output or checkpoint point.
-        let mut next = (step / every + 1) * every;
-        if let Some(c) = ck_every {
-            next = next.min((step / c + 1) * c);
-        }
-        let block = next.min(total) - step;
-        let t0 = Instant::now();
-        // On a worker of the pool: the parallel loops of the step then queue their jobs on the
-        // worker's own deque instead of rayon's global injector, which allocates (the warm
-        // coupled step allocates nothing: tests/no_alloc_in_step.rs).
-        if let Err(e) = rayon::scope(|_| solver.run(block)) {
-            pb.abandon();
-            return Err(anyhow::anyhow!(
-                "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
-                next.min(total)
-            ));
-        }
-        let dt = t0.elapsed();
-        step_time += dt;
-        block_mlups = nodes * block as f64 / dt.as_secs_f64().max(1e-9) / 1e6;
-        pb.set_message(format!("{status}{block_mlups:.1} MLUPS"));
-        let now_step = solver.fluid().time();
-        pb.set_position(now_step);
-        if log_lines && (last_log.elapsed().as_secs_f64() >= 30.0 || now_step >= total) {
-            last_log = Instant::now();
-            let done = (now_step - first_step) as f64;
-            let left = step_time.as_secs_f64() / done.max(1.0) * (total - now_step) as f64;
-            eprintln!(
-                "step {now_step}/{total} ({:.0} %), {status}{block_mlups:.1} MLUPS, {:.0} s elapsed, about {:.0} s left",
-                100.0 * now_step as f64 / total.max(1) as f64,
-                start.elapsed().as_secs_f64(),
-                left
-            );
+    if !path.is_file() {
+        return Err(BadResume(no_checkpoint()).into());
+    }
+    let checkpoint = read_checkpoint::<T>(path).map_err(|e| match e.downcast_ref::<PrecisionMismatch>() {
+        Some(p) => BadResume(p.to_string()),
+        None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
+    })?;
+    if checkpoint.case != fingerprint {
+        return Err(BadResume(format!(
+            "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
+            path.display()
+        ))
+        .into());
+    }
+    match solver {
+        Solver::Fluid(f) => f.restore(&checkpoint.state).context("cannot restore the checkpoint")?,
+        Solver::Coupled(c) => {
+            let bodies = checkpoint
+                .bodies
+                .ok_or_else(|| BadResume(format!("{} holds no particle states", path.display())))?;
+            let state = CoupledState { fluid: checkpoint.state, bodies };
+            // With the force field when the checkpoint has it (outputs at the resumed step
+            // need the velocity's half-force term); older checkpoints restore without.
+            c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
         }
     }
-    pb.finish_and_clear();
-    let fluid = solver.fluid();
-    ts.sync().with_context(|| format!("cannot sync {}", ts_path.display()))?;
-
-    let (rho, u) = fluid.fields();
-    let h5 = out_dir.join(files::FIELDS_H5);
-    write_fields_h5(&h5, grid, fluid.time(), &rho, &u)
-        .with_context(|| format!("cannot write {}", h5.display()))?;
-    let xmf = out_dir.join(files::FIELDS_XMF);
-    write_xdmf(&xmf, grid, fluid.time(), files::FIELDS_H5)
-        .with_context(|| format!("cannot write {}", xmf.display()))?;
-
-    let final_mass = fluid.total_mass();
-    let step_s = step_time.as_secs_f64();
-    let summary = RunSummary {
-        steps: fluid.time(),
-        grid,
-        precision: T::NAME,
-        isa: fluid.isa().name().to_string(),
-        threads: rayon::current_num_threads(),
-        wall_time_s: start.elapsed().as_secs_f64(),
-        step_time_s: step_s,
-        // Over the steps of this session (a resumed run counts from its checkpoint).
-        mlups: if step_s > 0.0 { nodes * (fluid.time() - first_step) as f64 / step_s / 1e6 } else { 0.0 },
-        initial_mass,
-        final_mass,
-        relative_mass_change: (final_mass - initial_mass) / initial_mass,
-        final_momentum: fluid.total_momentum(),
-        max_mach,
-        output_rows: rows,
-        particles: inits.len(),
-        markers,
-        impeller_markers,
-        resumed_from: resumed_at,
-    };
-    let json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
-    let sp = out_dir.join(files::SUMMARY);
-    atomic_write_bytes(&sp, format!("{json}\n").as_bytes())
-        .with_context(|| format!("cannot write {}", sp.display()))?;
-    Ok(summary)
+    Ok(())
 }

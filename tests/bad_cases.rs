@@ -10,7 +10,9 @@ use std::path::PathBuf;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::BIN;
 
 /// Every corpus file, sorted.
 fn corpus() -> Vec<PathBuf> {

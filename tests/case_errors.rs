@@ -4,29 +4,20 @@ use std::path::{Path, PathBuf};
 
 use slurry::case::{Case, CaseErrorKind, Precision};
 
-const GOOD: &str = r#"
-[domain]
-nx = 4
-ny = 4
-nz = 8
+mod common;
 
-[fluid]
-precision = "f32"
-tau = 0.65
-collision = "bgk"
+use common::case_toml;
 
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "periodic"
-y_max = "periodic"
-z_min = "no_slip"
-z_max = { moving_wall = [0.02, 0.0, 0.0] }
-
-[run]
-steps = 20
-output_every = 5
-"#;
+/// A 4 x 4 x 8 channel (periodic x and y) under a moving lid, f32 BGK.
+fn good() -> String {
+    case_toml(
+        [4, 4, 8],
+        "precision = \"f32\"\ntau = 0.65\ncollision = \"bgk\"",
+        "xy",
+        "steps = 20\noutput_every = 5",
+    )
+    .replace("z_max = \"no_slip\"", "z_max = { moving_wall = [0.02, 0.0, 0.0] }")
+}
 
 /// Writes `text` to `bad.toml` in a temporary directory and returns the error message.
 fn error_of(text: &str) -> (String, PathBuf, tempfile::TempDir) {
@@ -52,7 +43,7 @@ fn assert_mentions(msg: &str, path: &Path, needles: &[&str]) {
 fn good_case_parses() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("good.toml");
-    std::fs::write(&path, GOOD).unwrap();
+    std::fs::write(&path, good()).unwrap();
     let c = Case::from_file(&path).unwrap();
     assert_eq!(c.fluid.precision, Precision::F32);
     assert!((c.nu() - 0.05).abs() < 1e-15);
@@ -67,33 +58,33 @@ fn missing_file_names_the_file() {
 
 #[test]
 fn wrong_key_names_file_and_key() {
-    let (msg, path, _d) = error_of(&GOOD.replace("tau = 0.65", "viscosity = 0.05"));
+    let (msg, path, _d) = error_of(&good().replace("tau = 0.65", "viscosity = 0.05"));
     assert_mentions(&msg, &path, &["unknown key `fluid.viscosity`", "allowed: precision, nu, tau"]);
 }
 
 #[test]
 fn tau_at_one_half_names_fluid_tau() {
-    let (msg, path, _d) = error_of(&GOOD.replace("tau = 0.65", "tau = 0.5"));
+    let (msg, path, _d) = error_of(&good().replace("tau = 0.65", "tau = 0.5"));
     assert_mentions(&msg, &path, &["fluid.tau = 0.5", "must be finite and > 0.5"]);
 }
 
 #[test]
 fn nonpositive_nu_names_fluid_nu() {
-    let (msg, path, _d) = error_of(&GOOD.replace("tau = 0.65", "nu = -0.01"));
+    let (msg, path, _d) = error_of(&good().replace("tau = 0.65", "nu = -0.01"));
     assert_mentions(&msg, &path, &["fluid.nu = -0.01", "> 0"]);
-    let (msg, path, _d) = error_of(&GOOD.replace("tau = 0.65", "nu = 0"));
+    let (msg, path, _d) = error_of(&good().replace("tau = 0.65", "nu = 0"));
     assert_mentions(&msg, &path, &["fluid.nu", "> 0"]);
 }
 
 #[test]
 fn one_sided_periodic_names_both_faces() {
-    let (msg, path, _d) = error_of(&GOOD.replace("x_max = \"periodic\"", "x_max = \"no_slip\""));
+    let (msg, path, _d) = error_of(&good().replace("x_max = \"periodic\"", "x_max = \"no_slip\""));
     assert_mentions(&msg, &path, &["boundaries.x_min", "x_max", "pairs"]);
 }
 
 #[test]
 fn wrong_precision_names_key_and_options() {
-    let (msg, path, _d) = error_of(&GOOD.replace("\"f32\"", "\"double\""));
+    let (msg, path, _d) = error_of(&good().replace("\"f32\"", "\"double\""));
     assert_mentions(&msg, &path, &["fluid.precision", "double", "`f32` or `f64`", "line 8"]);
 }
 
@@ -117,28 +108,11 @@ fn examples_parse_and_validate() {
 
 /// A 40 x 32 x 48 box, periodic along x, walls elsewhere, with one valid cylinder and one
 /// valid random population; tests replace one line (or append one).
-const PARTICLES: &str = r#"gravity = [0.0, 0.0, -4.0e-5]
-
-[domain]
-nx = 40
-ny = 32
-nz = 48
-
-[fluid]
-nu = 0.05
-
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 10
-output_every = 5
-
+fn particles() -> String {
+    let duct = case_toml([40, 32, 48], "nu = 0.05", "x", "steps = 10\noutput_every = 5");
+    format!(
+        r#"gravity = [0.0, 0.0, -4.0e-5]
+{duct}
 [ibm]
 kernel = "roma3"
 iterations = 1
@@ -159,12 +133,14 @@ diameter = 4.0
 density = 1.25
 count = 10
 seed = 1
-"#;
+"#
+    )
+}
 
-/// `PARTICLES` with the line starting with `prefix` (the first one) replaced by `line`.
+/// [`particles`] with the line starting with `prefix` (the first one) replaced by `line`.
 fn p_edit(prefix: &str, line: &str) -> String {
     let mut done = false;
-    let out: Vec<String> = PARTICLES
+    let out: Vec<String> = particles()
         .lines()
         .map(|l| {
             if !done && l.starts_with(prefix) {
@@ -179,9 +155,10 @@ fn p_edit(prefix: &str, line: &str) -> String {
     out.join("\n") + "\n"
 }
 
-/// `PARTICLES` with the random population's lines starting with `prefix` replaced.
+/// [`particles`] with the random population's lines starting with `prefix` replaced.
 fn r_edit(prefix: &str, line: &str) -> String {
-    let (head, tail) = PARTICLES.split_once("[[random_particles]]").unwrap();
+    let text = particles();
+    let (head, tail) = text.split_once("[[random_particles]]").unwrap();
     let tail: Vec<String> =
         tail.lines().map(|l| if l.starts_with(prefix) { line.to_string() } else { l.to_string() }).collect();
     format!("{head}[[random_particles]]{}\n", tail.join("\n"))
@@ -197,7 +174,7 @@ fn rejects(text: &str, needles: &[&str]) {
 fn particle_case_parses() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.toml");
-    std::fs::write(&path, PARTICLES).unwrap();
+    std::fs::write(&path, particles()).unwrap();
     let c = Case::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(c.particle_count(), 11);
     assert_eq!(c.bodies().unwrap().len(), 11);
@@ -212,11 +189,11 @@ fn unknown_particle_keys_name_the_entry() {
     rejects(&r_edit("seed", "seed = 1\nnumber = 3"), &["unknown key `random_particles[0].number`", "count"]);
     rejects(&p_edit("iterations", "iterations = 1\nsmooth = true"), &["unknown key `ibm.smooth`", "kernel"]);
     rejects(
-        &PARTICLES.replace("[fluid]\n", "[fluid]\ngravity = [0.0, 0.0, -1.0]\n"),
+        &particles().replace("[fluid]\n", "[fluid]\ngravity = [0.0, 0.0, -1.0]\n"),
         &["unknown key `fluid.gravity`", "gravity is a top-level key"],
     );
     rejects(
-        &PARTICLES.replace("[[particles]]", "[particles]"),
+        &particles().replace("[[particles]]", "[particles]"),
         &["`particles` at line", "expected a sequence", "[[particles]]"],
     );
 }
@@ -319,7 +296,7 @@ fn particles_must_lie_inside_the_box() {
 #[test]
 fn overlapping_particles_name_both() {
     let second = "\n[[particles]]\nshape = \"sphere\"\ndiameter = 6.0\ndensity = 1.0\nposition = [25.5, 16.0, 30.0]\nmotion = \"fixed\"\n";
-    let text = PARTICLES.replace("[[random_particles]]", &format!("{second}\n[[random_particles]]"));
+    let text = particles().replace("[[random_particles]]", &format!("{second}\n[[random_particles]]"));
     rejects(&text, &["particles[1].position = [25.5, 16, 30]", "overlaps particles[0]", "[20, 16, 30]"]);
     // 0.5 further out they are clear (the cylinder's radius 3 + the sphere's 3 = 6).
     let dir = tempfile::tempdir().unwrap();
@@ -327,7 +304,7 @@ fn overlapping_particles_name_both() {
     std::fs::write(&path, text.replace("[25.5, 16.0, 30.0]", "[26.5, 16.0, 30.0]")).unwrap();
     Case::from_file(&path).unwrap_or_else(|e| panic!("{e}"));
     // Through the periodic x boundary.
-    let wrap = PARTICLES.replace("position = [20.0, 16.0, 30.0]", "position = [1.0, 16.0, 30.0]").replace(
+    let wrap = particles().replace("position = [20.0, 16.0, 30.0]", "position = [1.0, 16.0, 30.0]").replace(
         "[[random_particles]]",
         &format!("{}\n[[random_particles]]", second.replace("25.5", "37.0")),
     );
@@ -404,7 +381,7 @@ fn impossible_placement_says_how_many_were_placed() {
 /// an empty section is Table 1.
 #[test]
 fn contact_section_errors_name_key_and_range() {
-    let with = |body: &str| format!("{PARTICLES}\n[contacts]\n{body}\n");
+    let with = |body: &str| format!("{}\n[contacts]\n{body}\n", particles());
     rejects(&with("delta_sat = 1.5"), &["contacts.delta_sat", "1.5", "(0, delta_d = 1)"]);
     rejects(&with("k = -1.0"), &["contacts.k", "-1", "positive"]);
     rejects(&with("substeps = 0"), &["contacts.substeps", "0", "[1, 1024]"]);
@@ -421,33 +398,10 @@ fn contact_section_errors_name_key_and_range() {
 // ---- impeller ----------------------------------------------------------------------------
 
 /// A closed 40 x 40 x 48 box with a PBT of D = 20 at its centre.
-const IMPELLER: &str = r#"
-[domain]
-nx = 40
-ny = 40
-nz = 48
-
-[fluid]
-nu = 0.02
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 10
-output_every = 5
-
-[impeller]
-kind = "pbt"
-diameter = 20.0
-speed = 1.0e-3
-ramp_steps = 100
-"#;
+fn impeller() -> String {
+    let closed_box = case_toml([40, 40, 48], "nu = 0.02", "", "steps = 10\noutput_every = 5");
+    format!("{closed_box}\n[impeller]\nkind = \"pbt\"\ndiameter = 20.0\nspeed = 1.0e-3\nramp_steps = 100\n")
+}
 
 /// `[impeller]`: defaults, keys of the other kind, ranges, fit in the box, and particles that
 /// overlap it are refused, naming the key.
@@ -455,31 +409,34 @@ ramp_steps = 100
 fn impeller_section_errors_name_key_and_range() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ok.toml");
-    std::fs::write(&path, IMPELLER).unwrap();
+    std::fs::write(&path, impeller()).unwrap();
     let case = Case::from_file(&path).unwrap();
     let setup = case.impeller_setup().unwrap().unwrap();
     assert_eq!(setup.centre, slurry::rigid::Vec3::new(19.5, 19.5, 23.5));
     assert!((setup.tip_speed() - std::f64::consts::PI * 20.0e-3).abs() < 1e-15);
 
-    let with = |line: &str| format!("{IMPELLER}{line}\n");
+    let with = |line: &str| format!("{}{line}\n", impeller());
     rejects(&with("blade_count = 3"), &["impeller.blade_count", "blades"]);
     rejects(&with("thickness = 1.0"), &["impeller.thickness", "only for kind = \"disk\""]);
     rejects(&with("pitch_deg = 95.0"), &["impeller.pitch_deg", "95", "0 < pitch < 90"]);
-    rejects(&IMPELLER.replace("speed = 1.0e-3", "speed = 1.0e-2"), &["impeller.speed", "tip Mach", "0.3"]);
-    rejects(&IMPELLER.replace("diameter = 20.0", "diameter = 44.0"), &["impeller.centre", "inside the box"]);
+    rejects(&impeller().replace("speed = 1.0e-3", "speed = 1.0e-2"), &["impeller.speed", "tip Mach", "0.3"]);
+    rejects(
+        &impeller().replace("diameter = 20.0", "diameter = 44.0"),
+        &["impeller.centre", "inside the box"],
+    );
     rejects(&with("centre = [19.5, 19.5, 47.0]"), &["impeller.centre", "inside the box"]);
     rejects(
-        &IMPELLER
+        &impeller()
             .replace("z_max = \"no_slip\"", "z_max = \"periodic\"")
             .replace("z_min = \"no_slip\"", "z_min = \"periodic\""),
         &["impeller.shaft", "z_max"],
     );
     // A particle through the shaft.
     let particle = "\n[[particles]]\nshape = \"sphere\"\ndiameter = 4.0\ndensity = 1.25\nposition = [19.5, 21.0, 40.0]\nmotion = \"free\"\n";
-    rejects(&format!("{IMPELLER}{particle}"), &["particles[0].position", "overlaps the impeller"]);
+    rejects(&format!("{}{particle}", impeller()), &["particles[0].position", "overlaps the impeller"]);
     // Clear of it: accepted.
     let clear = particle.replace("[19.5, 21.0, 40.0]", "[5.0, 5.0, 40.0]");
     let path = dir.path().join("clear.toml");
-    std::fs::write(&path, format!("{IMPELLER}{clear}")).unwrap();
+    std::fs::write(&path, format!("{}{clear}", impeller())).unwrap();
     Case::from_file(&path).unwrap();
 }

@@ -6,42 +6,19 @@ use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
 
+use common::{case_toml, write_case, BIN};
+
+/// A channel (periodic x and y) sheared by a moving lid and driven by a body force, f32 TRT.
 fn case(steps: u64, nu: f64) -> String {
-    format!(
-        r#"
-[domain]
-nx = 48
-ny = 48
-nz = 24
-
-[fluid]
-precision = "f32"
-nu = {nu}
-collision = "trt"
-body_force = [1e-6, 0.0, 0.0]
-
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "periodic"
-y_max = "periodic"
-z_min = "no_slip"
-z_max = {{ moving_wall = [0.05, 0.0, 0.0] }}
-
-[run]
-steps = {steps}
-output_every = 100
-checkpoint_every = 200
-"#
+    case_toml(
+        [48, 48, 24],
+        &format!("precision = \"f32\"\nnu = {nu}\ncollision = \"trt\"\nbody_force = [1e-6, 0.0, 0.0]"),
+        "xy",
+        &format!("steps = {steps}\noutput_every = 100\ncheckpoint_every = 200"),
     )
-}
-
-fn write_case(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
+    .replace("z_max = \"no_slip\"", "z_max = { moving_wall = [0.05, 0.0, 0.0] }")
 }
 
 fn run(case: &Path, out: &Path, resume: bool) -> std::process::Output {
@@ -132,28 +109,12 @@ fn particle_case(steps: u64) -> String {
 
 /// The particle case with `extra` appended (e.g. `[contacts]`) and the sphere at height `z`.
 fn particle_case_with(steps: u64, extra: &str, z: f64) -> String {
+    let run = format!("steps = {steps}\noutput_every = 50\ncheckpoint_every = 100");
+    let closed_box = case_toml([20, 20, 32], "precision = \"f32\"\nnu = 0.05\ncollision = \"bgk\"", "", &run);
     format!(
         r#"
 gravity = [0.0, 0.0, -1e-4]
-
-[domain]
-nx = 20
-ny = 20
-nz = 32
-
-[fluid]
-precision = "f32"
-nu = 0.05
-collision = "bgk"
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
+{closed_box}
 [[particles]]
 shape = "cylinder"
 diameter = 6.0
@@ -168,10 +129,6 @@ diameter = 5.0
 density = 1.25
 position = [10.0, 9.0, {z}]
 
-[run]
-steps = {steps}
-output_every = 50
-checkpoint_every = 100
 {extra}
 "#
     )

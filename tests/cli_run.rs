@@ -2,19 +2,10 @@
 //! trouble give the documented exit codes and messages.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
-fn slurry(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_slurry"))
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the slurry binary runs")
-}
+mod common;
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+use common::{assert_no_temp_files, case_toml, slurry, stderr};
 
 #[test]
 fn poiseuille_runs_and_writes_readable_output() {
@@ -73,13 +64,6 @@ fn poiseuille_runs_and_writes_readable_output() {
     assert_no_temp_files(&out);
 }
 
-fn assert_no_temp_files(dir: &Path) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let name = e.unwrap().file_name().into_string().unwrap();
-        assert!(!name.contains(".tmp."), "temporary file left: {name}");
-    }
-}
-
 #[test]
 fn bad_case_exits_2_naming_the_key() {
     let dir = tempfile::tempdir().unwrap();
@@ -116,29 +100,13 @@ fn runaway_flow_exits_1_with_a_diagnosis() {
     // u = g t reaches Mach 0.3 (u = 0.173) after about 173 steps.
     let dir = tempfile::tempdir().unwrap();
     let case = dir.path().join("runaway.toml");
-    std::fs::write(
-        &case,
-        r#"
-[domain]
-nx = 4
-ny = 4
-nz = 4
-[fluid]
-nu = 0.1
-body_force = [1e-3, 0.0, 0.0]
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "periodic"
-y_max = "periodic"
-z_min = "periodic"
-z_max = "periodic"
-[run]
-steps = 1000
-output_every = 50
-"#,
-    )
-    .unwrap();
+    let text = case_toml(
+        [4, 4, 4],
+        "nu = 0.1\nbody_force = [1e-3, 0.0, 0.0]",
+        "xyz",
+        "steps = 1000\noutput_every = 50",
+    );
+    std::fs::write(&case, text).unwrap();
     let out = dir.path().join("out");
     let o = slurry(&["run", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
@@ -168,24 +136,15 @@ fn zero_threads_is_a_usage_error() {
 
 /// A fixed sphere in a force-driven periodic channel and a prescribed sphere moving through
 /// it: 20 steps, output every 10.
-const SPHERES: &str = r#"
-[domain]
-nx = 16
-ny = 16
-nz = 24
-
-[fluid]
-nu = 0.1
-body_force = [1e-5, 0.0, 0.0]
-
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "periodic"
-y_max = "periodic"
-z_min = "no_slip"
-z_max = "no_slip"
-
+fn spheres() -> String {
+    let channel = case_toml(
+        [16, 16, 24],
+        "nu = 0.1\nbody_force = [1e-5, 0.0, 0.0]",
+        "xy",
+        "steps = 20\noutput_every = 10",
+    );
+    format!(
+        r#"{channel}
 [[particles]]
 shape = "sphere"
 diameter = 6.0
@@ -200,17 +159,15 @@ density = 1.5
 position = [12.0, 8.0, 16.0]
 velocity = [0.01, 0.0, 0.0]
 motion = "prescribed"
-
-[run]
-steps = 20
-output_every = 10
-"#;
+"#
+    )
+}
 
 #[test]
 fn particles_write_a_readable_history() {
     let dir = tempfile::tempdir().unwrap();
     let case = dir.path().join("spheres.toml");
-    std::fs::write(&case, SPHERES).unwrap();
+    std::fs::write(&case, spheres()).unwrap();
     let out = dir.path().join("out");
     let o =
         slurry(&["run", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet", "--threads", "2"]);
@@ -275,27 +232,18 @@ fn particles_write_a_readable_history() {
     assert!(stderr(&o).contains("checkpoint"), "{}", stderr(&o));
 }
 
-const SETTLE_CASE: &str = r#"
+/// Three random spheres in a closed box, with contacts; the `[[random_particles]]` come last.
+fn settle_case() -> String {
+    let closed_box = case_toml(
+        [14, 14, 18],
+        "precision = \"f32\"\nnu = 0.1\ncollision = \"bgk\"",
+        "",
+        "steps = 10\noutput_every = 10",
+    );
+    format!(
+        r#"
 gravity = [0.0, 0.0, -2e-3]
-
-[domain]
-nx = 14
-ny = 14
-nz = 18
-
-[fluid]
-precision = "f32"
-nu = 0.1
-collision = "bgk"
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
+{closed_box}
 [contacts]
 
 [[random_particles]]
@@ -304,11 +252,9 @@ diameter = 4.0
 density = 1.25
 count = 3
 seed = 7
-
-[run]
-steps = 10
-output_every = 10
-"#;
+"#
+    )
+}
 
 /// `slurry settle`: three random spheres settle on the floor (mean speed below the threshold,
 /// centres within a diameter of the floor); the bed is written, is the same on a second run
@@ -317,7 +263,8 @@ output_every = 10
 fn settle_writes_a_reusable_bed() {
     let dir = tempfile::tempdir().unwrap();
     let case = dir.path().join("settle.toml");
-    std::fs::write(&case, SETTLE_CASE).unwrap();
+    let settle_case = settle_case();
+    std::fs::write(&case, &settle_case).unwrap();
     let args = |out: &std::path::Path| {
         let mut v: Vec<String> =
             ["settle", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]
@@ -347,9 +294,10 @@ fn settle_writes_a_reusable_bed() {
         assert!(pa[3 * k + 2] < 2.0 + 4.0, "sphere {k} did not reach the floor: z = {}", pa[3 * k + 2]);
     }
     let bed = std::fs::read_to_string(a.join("bed_particles.toml")).unwrap();
-    let head = SETTLE_CASE.split("[[random_particles]]").next().unwrap();
+    // The case without its random population (its [run] included), with the bed instead.
+    let head = settle_case.split("[[random_particles]]").next().unwrap();
     let stirred = dir.path().join("stirred.toml");
-    std::fs::write(&stirred, format!("{head}\n[run]\nsteps = 10\noutput_every = 10\n{bed}")).unwrap();
+    std::fs::write(&stirred, format!("{head}\n{bed}")).unwrap();
     let o = slurry(&["check", stirred.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
 }

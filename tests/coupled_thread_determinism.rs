@@ -12,31 +12,22 @@ use slurry::case::{Case, ImpellerSetup};
 use slurry::coupling::Coupled;
 use slurry::lbm::Fluid;
 
-const CASE: &str = r#"
+mod common;
+
+use common::case_toml;
+
+/// A closed 36³ box, f32 BGK, with contacts, a pitched-blade turbine and 26 cylinders.
+fn case_text() -> String {
+    let closed_box = case_toml(
+        [36, 36, 36],
+        "precision = \"f32\"\nnu = 0.02\ncollision = \"bgk\"",
+        "",
+        "steps = 1\noutput_every = 1",
+    );
+    format!(
+        r#"
 gravity = [0.0, 0.0, -2e-4]
-
-[domain]
-nx = 36
-ny = 36
-nz = 36
-
-[fluid]
-precision = "f32"
-nu = 0.02
-collision = "bgk"
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 1
-output_every = 1
-
+{closed_box}
 [contacts]
 
 [impeller]
@@ -55,14 +46,16 @@ count = 26
 seed = 7
 region = [[0.5, 0.5, 0.5], [34.5, 34.5, 12.0]]
 clearance = 0.5
-"#;
+"#
+    )
+}
 
 /// Bits of everything the step produces after `steps` steps with `threads` workers, and the
 /// number of bodies with a non-zero contact force at the end.
 fn run(threads: usize, steps: u64) -> (Vec<u32>, Vec<u64>, usize) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
-        let case = Case::parse(CASE, "determinism.toml").expect("valid case");
+        let case = Case::parse(&case_text(), "determinism.toml").expect("valid case");
         let mut fluid = Fluid::<f32>::new(case.grid(), case.fluid_params(), case.boundaries()).unwrap();
         fluid.initialize(|x, y, z| case.initial_state(x, y, z));
         let mut bodies: Vec<_> = case.particle_inits().unwrap().iter().map(|p| p.body()).collect();

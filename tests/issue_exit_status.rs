@@ -6,23 +6,19 @@
 //! is not a slurry checkpoint)`, or `--out DIR: cannot write into the output directory`.
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::{slurry, stderr};
 
 fn run(out: &Path, resume: bool) -> Output {
-    let mut c = Command::new(BIN);
-    c.current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(["run", "examples/couette.toml", "--quiet", "--out"])
-        .arg(out);
+    let out = out.to_str().unwrap();
+    let mut args = vec!["run", "examples/couette.toml", "--quiet", "--out", out];
     if resume {
-        c.arg("--resume");
+        args.push("--resume");
     }
-    c.output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).to_string()
+    slurry(&args)
 }
 
 #[test]

@@ -15,34 +15,14 @@ use std::process::{Command, Output};
 use slurry::case::memory::{MemoryEstimate, BYTES_PER_MARKER, BYTES_PER_PARTICLE};
 use slurry::case::Case;
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
 
+use common::{case_toml, BIN};
+
+/// A channel (periodic x and y) of `nx × ny × nz` nodes, with `extra` appended.
 fn case(nx: usize, ny: usize, nz: usize, precision: &str, extra: &str) -> String {
-    format!(
-        r#"
-[domain]
-nx = {nx}
-ny = {ny}
-nz = {nz}
-
-[fluid]
-precision = "{precision}"
-nu = 0.1
-
-[boundaries]
-x_min = "periodic"
-x_max = "periodic"
-y_min = "periodic"
-y_max = "periodic"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 10
-output_every = 5
-{extra}
-"#
-    )
+    let fluid = format!("precision = \"{precision}\"\nnu = 0.1");
+    format!("{}{extra}\n", case_toml([nx, ny, nz], &fluid, "xy", "steps = 10\noutput_every = 5"))
 }
 
 fn check(text: &str, limit: Option<&str>) -> (Output, String, String) {

@@ -12,7 +12,9 @@ use std::time::{Duration, Instant};
 
 use slurry::reproduce::{check_scale, MIN_SCALE};
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::BIN;
 
 fn reproduce(args: &[&str]) -> (i32, String, Duration) {
     let tmp = tempfile::tempdir().unwrap();

@@ -10,35 +10,21 @@
 //! (physics columns), the final checkpoint (populations and force field) and the summary's
 //! final momentum and largest Mach number.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::{case_toml, write_case, BIN};
 
 /// A free sphere falling onto the floor (contacts on) and a free cylinder, f32, TRT.
 fn case(steps: u64, checkpoint_every: u64) -> String {
+    let run = format!("steps = {steps}\noutput_every = 40\ncheckpoint_every = {checkpoint_every}");
+    let closed_box = case_toml([16, 16, 24], "precision = \"f32\"\nnu = 0.05\ncollision = \"trt\"", "", &run);
     format!(
         r#"
 gravity = [0.0, 0.0, -2e-4]
-
-[domain]
-nx = 16
-ny = 16
-nz = 24
-
-[fluid]
-precision = "f32"
-nu = 0.05
-collision = "trt"
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
+{closed_box}
 [contacts]
 
 [[particles]]
@@ -54,19 +40,8 @@ shape = "sphere"
 diameter = 4.0
 density = 1.5
 position = [8.0, 7.0, 3.0]
-
-[run]
-steps = {steps}
-output_every = 40
-checkpoint_every = {checkpoint_every}
 "#
     )
-}
-
-fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, text).unwrap();
-    p
 }
 
 fn run(case: &Path, out: &Path, resume: bool) {
@@ -135,7 +110,7 @@ fn assert_same_outputs(a: &Path, b: &Path, what: &str) {
 #[test]
 fn resume_at_final_output_and_checkpoint_steps_is_bitwise_exact() {
     let tmp = tempfile::tempdir().unwrap();
-    let full = write(tmp.path(), "full.toml", &case(200, 100));
+    let full = write_case(tmp.path(), "full.toml", &case(200, 100));
     let a = tmp.path().join("a");
     run(&full, &a, false);
 
@@ -151,14 +126,14 @@ fn resume_at_final_output_and_checkpoint_steps_is_bitwise_exact() {
 
     // 2. At an output step (120, also a checkpoint): a run of 120 steps extended to 200.
     let c = tmp.path().join("c");
-    run(&write(tmp.path(), "c.toml", &case(120, 60)), &c, false);
+    run(&write_case(tmp.path(), "c.toml", &case(120, 60)), &c, false);
     run(&full, &c, true);
     assert_same_outputs(&a, &c, "resumed at output step 120");
 
     // 3. At a checkpoint that is not an output step (100; output every 40), the run having
     // gone on to 140 before it stopped: rows and frames after 100 are cut and recomputed.
     let d = tmp.path().join("d");
-    run(&write(tmp.path(), "d.toml", &case(140, 50)), &d, false);
+    run(&write_case(tmp.path(), "d.toml", &case(140, 50)), &d, false);
     run(&full, &d, true);
     assert_same_outputs(&a, &d, "resumed at checkpoint step 100");
 }

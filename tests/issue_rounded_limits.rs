@@ -8,36 +8,23 @@
 use slurry::case::Case;
 use slurry::util::{fmt_num, humanize_numbers};
 
+mod common;
+
+use common::case_toml;
+
 #[test]
 fn shaft_limit_reads_as_the_hub_diameter() {
-    let text = r#"
-[domain]
-nx = 24
-ny = 24
-nz = 24
-
-[fluid]
-nu = 0.1
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 10
-output_every = 5
-
+    let closed_box = case_toml([24, 24, 24], "nu = 0.1", "", "steps = 10\noutput_every = 5");
+    let text = &format!(
+        r#"{closed_box}
 [impeller]
 kind = "pbt"
 diameter = 12.0
 speed = 1e-3
 ramp_steps = 100
 shaft_diameter = 3.0
-"#;
+"#
+    );
     let e = Case::parse(text, "imp.toml").expect_err("accepted").to_string();
     assert!(e.contains("impeller.shaft_diameter = 3") && e.contains("shaft_diameter < 2.4"), "{e}");
     assert!(!e.contains("2.4000000000000004"), "{e}");

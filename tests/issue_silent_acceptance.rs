@@ -14,30 +14,17 @@
 use slurry::case::particles::MIN_PARTICLE_SIZE;
 use slurry::case::{Case, MAX_TAU};
 
-const GOOD: &str = r#"
-[domain]
-nx = 12
-ny = 12
-nz = 12
+mod common;
 
-[fluid]
-nu = 0.1
+use common::{case_toml, refusal};
 
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 10
-output_every = 5
-"#;
+/// A closed 12³ box of fluid at rest.
+fn good() -> String {
+    case_toml([12, 12, 12], "nu = 0.1", "", "steps = 10\noutput_every = 5")
+}
 
 fn refused(text: &str, needles: &[&str]) {
-    let e = Case::parse(text, "bad.toml").expect_err("accepted").to_string();
+    let e = refusal(text);
     assert!(e.starts_with("bad.toml: "), "{e}");
     for n in needles {
         assert!(e.contains(n), "`{n}` missing from: {e}");
@@ -46,46 +33,47 @@ fn refused(text: &str, needles: &[&str]) {
 
 #[test]
 fn the_good_case_is_accepted() {
-    Case::parse(GOOD, "good.toml").unwrap();
-    Case::parse(&GOOD.replace("nu = 0.1", "nu = 1e-12"), "good.toml").unwrap();
-    Case::parse(&GOOD.replace("nu = 0.1", "tau = 100.0"), "good.toml").unwrap();
+    Case::parse(&good(), "good.toml").unwrap();
+    Case::parse(&good().replace("nu = 0.1", "nu = 1e-12"), "good.toml").unwrap();
+    Case::parse(&good().replace("nu = 0.1", "tau = 100.0"), "good.toml").unwrap();
 }
 
 #[test]
 fn viscosity_that_rounds_to_tau_one_half_is_refused() {
-    refused(&GOOD.replace("nu = 0.1", "nu = 1e-300"), &["fluid.nu = 1e-300", "rounds to 0.5", "> 0.5"]);
-    refused(&GOOD.replace("nu = 0.1", "nu = 1e-17"), &["fluid.nu", "rounds to 0.5"]);
+    refused(&good().replace("nu = 0.1", "nu = 1e-300"), &["fluid.nu = 1e-300", "rounds to 0.5", "> 0.5"]);
+    refused(&good().replace("nu = 0.1", "nu = 1e-17"), &["fluid.nu", "rounds to 0.5"]);
 }
 
 #[test]
 fn viscosity_beyond_the_tau_bound_is_refused() {
     assert_eq!(MAX_TAU, 100.0);
-    refused(&GOOD.replace("nu = 0.1", "nu = 1e12"), &["fluid.nu = 1e12", "<= 33.1666666667"]);
-    refused(&GOOD.replace("nu = 0.1", "tau = 100.5"), &["fluid.tau = 100.5", "at most 100"]);
+    refused(&good().replace("nu = 0.1", "nu = 1e12"), &["fluid.nu = 1e12", "<= 33.1666666667"]);
+    refused(&good().replace("nu = 0.1", "tau = 100.5"), &["fluid.tau = 100.5", "at most 100"]);
 }
 
 #[test]
 fn sections_given_as_arrays_are_refused() {
-    let text = GOOD.replace("[domain]\nnx = 12\nny = 12\nnz = 12\n", "domain = [4, 4, 8]\n");
+    let text = good().replace("[domain]\nnx = 12\nny = 12\nnz = 12\n", "domain = [4, 4, 8]\n");
     refused(&text, &["domain = [4, 4, 8]", "must be a table", "[domain]"]);
-    let text = format!("fluid = [0.1]\n{}", GOOD.replace("[fluid]\nnu = 0.1\n", ""));
+    let text = format!("fluid = [0.1]\n{}", good().replace("[fluid]\nnu = 0.1\n", ""));
     refused(&text, &["fluid = [0.1]", "must be a table"]);
     let sphere =
         "\n[particles]\nshape = \"sphere\"\ndiameter = 4.0\ndensity = 1.5\nposition = [6.0, 6.0, 6.0]\n";
-    refused(&format!("{GOOD}{sphere}"), &["`particles` at line", "[[particles]]"]);
-    refused(&format!("particles = [[1, 2]]\n{GOOD}"), &["particles[0]", "table"]);
+    refused(&format!("{}{sphere}", good()), &["`particles` at line", "[[particles]]"]);
+    refused(&format!("particles = [[1, 2]]\n{}", good()), &["particles[0]", "table"]);
 }
 
 #[test]
 fn particles_smaller_than_a_lattice_spacing_are_refused() {
     assert_eq!(MIN_PARTICLE_SIZE, 1.0);
     let sphere = |d: &str| {
-        format!("{GOOD}\n[[particles]]\nshape = \"sphere\"\ndiameter = {d}\ndensity = 1.5\nposition = [6.0, 6.0, 6.0]\n")
+        format!("{}\n[[particles]]\nshape = \"sphere\"\ndiameter = {d}\ndensity = 1.5\nposition = [6.0, 6.0, 6.0]\n", good())
     };
     refused(&sphere("1e-6"), &["particles[0].diameter = 0.000001", ">= 1"]);
     Case::parse(&sphere("1.0"), "good.toml").unwrap();
     let cyl = format!(
-        "{GOOD}\n[[particles]]\nshape = \"cylinder\"\ndiameter = 3.0\nlength = 0.2\ndensity = 1.5\nposition = [6.0, 6.0, 6.0]\n"
+        "{}\n[[particles]]\nshape = \"cylinder\"\ndiameter = 3.0\nlength = 0.2\ndensity = 1.5\nposition = [6.0, 6.0, 6.0]\n",
+        good()
     );
     refused(&cyl, &["particles[0].length = 0.2", ">= 1"]);
 }

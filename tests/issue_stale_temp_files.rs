@@ -6,7 +6,9 @@
 
 use std::process::Command;
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::BIN;
 
 #[test]
 fn next_start_removes_stale_temporary_files() {

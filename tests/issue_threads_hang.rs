@@ -8,7 +8,9 @@
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
-const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+mod common;
+
+use common::BIN;
 
 fn slurry(args: &[&str], env: Option<(&str, &str)>) -> (Output, Duration) {
     let t0 = Instant::now();

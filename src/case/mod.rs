@@ -39,6 +39,7 @@
 //! ([`Case::validate`], which also runs the solver's own [`FluidParams::validate`] and
 //! [`Boundaries::validate`]). Nothing is clamped or silently corrected.
 
+mod describe;
 pub mod impeller;
 mod keys;
 pub mod memory;

@@ -552,3 +552,48 @@ seed = 1
         assert!(dt < 30.0, "placement took {dt} s");
     }
 }
+
+/// `Case::describe` (what `slurry check` prints) names every part of a case: with an impeller,
+/// a particle and contacts, a line for each.
+#[test]
+fn describe_names_everything_the_case_holds() {
+    let c = pcase(
+        r#"
+[impeller]
+kind = "pbt"
+diameter = 20.0
+speed = 1.0e-3
+ramp_steps = 100
+
+[contacts]
+substeps = 4
+
+[[particles]]
+shape = "sphere"
+diameter = 4.0
+density = 1.25
+position = [5.0, 5.0, 5.0]
+"#,
+    );
+    let d = c.describe();
+    for item in [
+        "grid ",
+        "fluid ",
+        "x_min ",
+        "initial ",
+        "gravity ",
+        "ibm ",
+        "particle ",
+        "particles ",
+        "impeller ",
+        "rotation ",
+        "contacts ",
+        "memory ",
+        "run ",
+    ] {
+        assert!(d.lines().any(|l| l.starts_with(item)), "no `{item}` line in\n{d}");
+    }
+    assert!(d.contains("pitched-blade turbine, 4 blades at 45°"), "{d}");
+    assert!(d.contains("N = 0.001 rev/step (1000 steps per revolution), ramp 100 steps"), "{d}");
+    assert!(d.contains("k 5, δ0 0.5") && d.contains("4 sub-steps per step"), "{d}");
+}

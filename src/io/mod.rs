@@ -22,7 +22,9 @@ pub mod timeseries;
 pub mod xdmf;
 
 pub use atomic::{atomic_write, atomic_write_bytes, remove_stale_temps};
-pub use checkpoint::{read_checkpoint, write_checkpoint, Checkpoint, BODY_STATE_LEN};
+pub use checkpoint::{
+    body_from_row, body_to_row, read_checkpoint, write_checkpoint, Checkpoint, BODY_STATE_LEN,
+};
 pub use fields::{hdf5_message, io_message, write_fields_h5, FieldsError};
 pub use particles::{
     read_particle_history, read_particle_history_from, ParticleFrame, ParticleHistory, ParticleHistoryWriter,

@@ -129,13 +129,13 @@ pub fn bench_case(
     for _ in 0..steps {
         c.step().map_err(|e| anyhow::anyhow!("timed step: {e}"))?;
     }
-    let tm = *c.timings();
+    let timings = *c.timings();
     let per = |x: f64| x * 1e3 / steps as f64;
     let t = Instant::now();
     let _ = c.fluid().health(case.run.mach_limit);
     let _ = c.fluid().wall_momentum_exchange([0.0; 3]);
     let output_ms = t.elapsed().as_secs_f64() * 1e3 / sched.output_every as f64;
-    let step_ms = per(tm.total());
+    let step_ms = per(timings.total());
     let nodes = grid.nodes() as f64;
     Ok(CoupledBench {
         case: name.to_string(),
@@ -147,13 +147,13 @@ pub fn bench_case(
         markers: c.marker_count(),
         fluid_ms,
         step_ms,
-        geometry_ms: per(tm.geometry),
-        interior_ms: per(tm.interior),
-        forcing_ms: per(tm.forcing),
-        fluid_in_step_ms: per(tm.fluid),
-        bodies_ms: per(tm.bodies),
-        contact_ms: per(tm.contacts),
-        ibm_ms: per(tm.geometry + tm.interior + tm.forcing),
+        geometry_ms: per(timings.geometry),
+        interior_ms: per(timings.interior),
+        forcing_ms: per(timings.forcing),
+        fluid_in_step_ms: per(timings.fluid),
+        bodies_ms: per(timings.bodies),
+        contact_ms: per(timings.contacts),
+        ibm_ms: per(timings.geometry + timings.interior + timings.forcing),
         output_ms,
         ratio: step_ms / fluid_ms,
         fluid_mlups: nodes / fluid_ms / 1e3,

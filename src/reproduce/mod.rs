@@ -71,6 +71,17 @@ pub fn check_scale(s: f64) -> Result<(), String> {
     ))
 }
 
+/// Checks a number of revolutions after the ramp before anything starts: finite and positive.
+///
+/// # Errors
+/// The message names `--revolutions` and the value.
+pub fn check_revolutions(revolutions: f64) -> Result<(), String> {
+    if revolutions.is_finite() && revolutions > 0.0 {
+        return Ok(());
+    }
+    Err(format!("--revolutions {revolutions}: must be finite and > 0"))
+}
+
 /// The default number of revolutions after the ramp.
 pub const DEFAULT_REVOLUTIONS: f64 = 4.0;
 /// `--quick`: scale (the default's: at 1/5 the random placement cannot fit the paper's 822
@@ -172,18 +183,18 @@ pub fn scale_case(case: &Case, s: f64) -> anyhow::Result<Case> {
         p.length = p.length.map(|l| l * s);
         p.position = p.position.map(|x| (x + 0.5) * s - 0.5);
     }
-    let imp = c.impeller.as_mut().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
-    imp.diameter *= s;
-    imp.speed /= s;
-    imp.ramp_steps = ((imp.ramp_steps as f64) * s).round() as u64;
-    imp.centre = imp.centre.map(|p| p.map(|x| (x + 0.5) * s - 0.5));
+    let impeller = c.impeller.as_mut().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
+    impeller.diameter *= s;
+    impeller.speed /= s;
+    impeller.ramp_steps = ((impeller.ramp_steps as f64) * s).round() as u64;
+    impeller.centre = impeller.centre.map(|p| p.map(|x| (x + 0.5) * s - 0.5));
     for v in [
-        &mut imp.thickness,
-        &mut imp.blade_width,
-        &mut imp.blade_thickness,
-        &mut imp.hub_diameter,
-        &mut imp.hub_height,
-        &mut imp.shaft_diameter,
+        &mut impeller.thickness,
+        &mut impeller.blade_width,
+        &mut impeller.blade_thickness,
+        &mut impeller.hub_diameter,
+        &mut impeller.hub_height,
+        &mut impeller.shaft_diameter,
     ] {
         *v = v.map(|x| x * s);
     }
@@ -229,22 +240,21 @@ pub struct Schedule {
 /// # Errors
 /// A case without `[impeller]`, or `revolutions` not finite and positive.
 pub fn schedule(c: &Case, revolutions: f64) -> anyhow::Result<Schedule> {
-    if !(revolutions.is_finite() && revolutions > 0.0) {
-        anyhow::bail!("--revolutions = {revolutions}: must be finite and > 0");
-    }
-    let imp = c.impeller.as_ref().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
-    let spr = 1.0 / imp.speed.abs();
+    check_revolutions(revolutions).map_err(anyhow::Error::msg)?;
+    let impeller = c.impeller.as_ref().ok_or_else(|| anyhow::anyhow!("the case has no [impeller]"))?;
+    let steps_per_revolution = 1.0 / impeller.speed.abs();
     // Even: checkpoints need an even step (the AA pattern's state is complete there).
-    let output_every = (((spr / OUTPUTS_PER_REVOLUTION) / 2.0).round() as u64).max(1) * 2;
-    let per_ck = ((CHECKPOINT_REVOLUTIONS * spr / output_every as f64).round() as u64).max(1);
-    let steps_after = (revolutions * spr / output_every as f64).ceil() as u64 * output_every;
-    let ramp = imp.ramp_steps.div_ceil(output_every) * output_every;
+    let output_every = (((steps_per_revolution / OUTPUTS_PER_REVOLUTION) / 2.0).round() as u64).max(1) * 2;
+    let outputs_per_checkpoint =
+        ((CHECKPOINT_REVOLUTIONS * steps_per_revolution / output_every as f64).round() as u64).max(1);
+    let steps_after = (revolutions * steps_per_revolution / output_every as f64).ceil() as u64 * output_every;
+    let ramp_steps_rounded = impeller.ramp_steps.div_ceil(output_every) * output_every;
     Ok(Schedule {
-        steps_per_revolution: spr,
-        ramp_steps: imp.ramp_steps,
-        steps: ramp + steps_after,
+        steps_per_revolution,
+        ramp_steps: impeller.ramp_steps,
+        steps: ramp_steps_rounded + steps_after,
         output_every,
-        checkpoint_every: per_ck * output_every,
+        checkpoint_every: outputs_per_checkpoint * output_every,
     })
 }
 
@@ -422,8 +432,9 @@ pub fn announce(names: &[String], scale: f64, revolutions: f64, quick: bool, def
          which takes days)"
             .to_string()
     } else {
-        // Measured cost of the coupled step: about 0.2 µs per node and 0.5 µs per marker on
-        // 2 cores; the markers scale with s², the nodes with s³, the steps per revolution with s.
+        // Measured cost of the coupled step on 2 cores: about 0.012 µs (12 ns) per node and
+        // 0.5 µs per marker; the markers scale with s², the nodes with s³, the steps per
+        // revolution with s.
         let steps = (revolutions + 0.5) * 4000.0 * scale;
         let nodes = grid.iter().product::<f64>();
         let markers = 1.7e6 * scale * scale;

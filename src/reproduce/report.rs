@@ -115,7 +115,7 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
     };
     let (is, ia, iz) = (col("step")?, col("impeller_angle")?, col("particle_mean_z")?);
     let (if_, ic) = (col("po_fluid")?, col("po_solids")?);
-    let mut ts = TimeSeries::default();
+    let mut timeseries = TimeSeries::default();
     for (k, line) in lines.enumerate() {
         let f: Vec<&str> = line.split(',').collect();
         let num = |i: usize| -> anyhow::Result<f64> {
@@ -123,13 +123,13 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
                 anyhow::anyhow!("{}: row {}: column {i} is not a number", path.display(), k + 2)
             })
         };
-        ts.time.push(num(is)? / steps_per_rev);
-        ts.revolutions.push(num(ia)? / (2.0 * PI));
-        ts.mean_height.push((num(iz)? + 0.5) / h);
-        ts.po_fluid.push(num(if_)?);
-        ts.po_solids.push(num(ic)?);
+        timeseries.time.push(num(is)? / steps_per_rev);
+        timeseries.revolutions.push(num(ia)? / (2.0 * PI));
+        timeseries.mean_height.push((num(iz)? + 0.5) / h);
+        timeseries.po_fluid.push(num(if_)?);
+        timeseries.po_solids.push(num(ic)?);
     }
-    Ok(ts)
+    Ok(timeseries)
 }
 
 /// The velocity magnitude on the plane `y = j` of `fields.h5`: `(values, nx, nz)`, row `k`
@@ -341,7 +341,7 @@ pub fn write_all(
     let h = grid.nz as f64;
     let tank =
         Tank { t: grid.nx as f64, h, tip_speed: setup.tip_speed(), steps_per_rev: 1.0 / setup.speed().abs() };
-    let ts = read_timeseries(&run.join(crate::run::files::TIMESERIES), h, tank.steps_per_rev)?;
+    let timeseries = read_timeseries(&run.join(crate::run::files::TIMESERIES), h, tank.steps_per_rev)?;
     let hist = crate::io::read_particle_history(&run.join(crate::run::files::PARTICLES_H5))
         .with_context(|| format!("cannot read {}", run.join(crate::run::files::PARTICLES_H5).display()))?;
     let frames = &hist.frames;
@@ -352,11 +352,11 @@ pub fn write_all(
     // Statistics.
     // The power series after the ramp, in time units of 1/N (as the particle frames).
     let ramp_end = setup.motion.ramp_steps / tank.steps_per_rev;
-    let po_series: Vec<(f64, f64, f64)> = ts
+    let po_series: Vec<(f64, f64, f64)> = timeseries
         .time
         .iter()
-        .zip(&ts.po_fluid)
-        .zip(&ts.po_solids)
+        .zip(&timeseries.po_fluid)
+        .zip(&timeseries.po_solids)
         .filter(|((t, _), _)| **t >= ramp_end)
         .map(|((t, f), c)| (*t, *f, *c))
         .collect();
@@ -429,7 +429,7 @@ pub fn write_all(
     let j = setup.centre.y.round().clamp(0.0, (grid.ny - 1) as f64) as usize;
     let (speed, nx, nz) = midplane_speed(&run.join(crate::run::files::FIELDS_H5), j)?;
     write_midplane(out, &speed, nx, nz, j, summary.run.steps)?;
-    let figs = figures(name, paper, &tank, &hist, &speed, (nx, nz), j as f64, &ts, &st, out)?;
+    let figs = figures(name, paper, &tank, &hist, &speed, (nx, nz), j as f64, &timeseries, &st, out)?;
     let md = report_md(name, case, paper, summary, bed, &results, &figs);
     let p = out.join("report.md");
     atomic_write_bytes(&p, md.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
@@ -457,7 +457,7 @@ fn figures(
     speed: &[f64],
     (nx, nz): (usize, usize),
     plane_y: f64,
-    ts: &TimeSeries,
+    timeseries: &TimeSeries,
     st: &stats::Stats,
     out: &Path,
 ) -> anyhow::Result<Vec<(String, String)>> {
@@ -515,12 +515,12 @@ fn figures(
         y_label: "⟨z_p⟩ / H".into(),
         series: vec![Series::new(
             "this run",
-            ts.revolutions.iter().copied().zip(ts.mean_height.iter().copied()).collect(),
+            timeseries.revolutions.iter().copied().zip(timeseries.mean_height.iter().copied()).collect(),
             SeriesStyle::Line,
         )]
         .into_iter()
         .chain(paper.values.iter().filter(|v| v.key == "mean_height").filter_map(|v| {
-            let end = ts.revolutions.last().copied().unwrap_or(1.0);
+            let end = timeseries.revolutions.last().copied().unwrap_or(1.0);
             v.paper.map(|p| {
                 Series::new(format!("paper (steady) {p}"), vec![(0.0, p), (end, p)], SeriesStyle::Line)
             })
@@ -599,15 +599,15 @@ fn figures(
     ));
 
     // Figure 10.
-    let end = ts.revolutions.last().copied().unwrap_or(0.0);
+    let end = timeseries.revolutions.last().copied().unwrap_or(0.0);
     let from = (end - POWER_REVOLUTIONS).max(0.5);
     let sel = |v: &[f64]| -> Vec<(f64, f64)> {
-        ts.revolutions.iter().zip(v).filter(|(r, _)| **r >= from).map(|(r, x)| (*r, *x)).collect()
+        timeseries.revolutions.iter().zip(v).filter(|(r, _)| **r >= from).map(|(r, x)| (*r, *x)).collect()
     };
-    let total: Vec<f64> = ts.po_fluid.iter().zip(&ts.po_solids).map(|(a, b)| a + b).collect();
+    let total: Vec<f64> = timeseries.po_fluid.iter().zip(&timeseries.po_solids).map(|(a, b)| a + b).collect();
     let mut series = vec![
-        Series::new("Po_f (liquid)", sel(&ts.po_fluid), SeriesStyle::Line),
-        Series::new("Po_c (collisions)", sel(&ts.po_solids), SeriesStyle::Line),
+        Series::new("Po_f (liquid)", sel(&timeseries.po_fluid), SeriesStyle::Line),
+        Series::new("Po_c (collisions)", sel(&timeseries.po_solids), SeriesStyle::Line),
         Series::new("Po total", sel(&total), SeriesStyle::Line),
     ];
     for v in paper.values.iter().filter(|v| v.key.starts_with("po")) {

@@ -1,6 +1,6 @@
 //! # slurry-verification
 //!
-//! The verification suite of `slurry`, as code: each case in [`cases`] runs the fluid solver on
+//! The verification suite of `slurry`, as code: each case in [`cases`] runs the solver on
 //! a problem with a known answer (an exact solution, a reference kernel, a conservation law),
 //! measures an error, and turns it into [`Check`]s with a tolerance whose reason is written next
 //! to it. Convergence cases sweep at least four resolutions, print one error row per resolution
@@ -23,7 +23,17 @@
 //!   spreading bitwise identical for any thread count; cost per marker;
 //! - [`cases::quaternion_norm`]: rigid-body quaternion norm drift over 10⁶ torque-free steps;
 //! - [`cases::torque_free`]: torque-free tops: energy and angular momentum to second order,
-//!   Dzhanibekov flip near the intermediate axis only, free precession against the exact solution.
+//!   Dzhanibekov flip near the intermediate axis only, free precession against the exact solution;
+//! - [`cases::stokes_drag`]: IBM drag of a periodic array of fixed spheres against Zick & Homsy,
+//!   first order;
+//! - [`cases::free_particles`]: free bodies at γ = 1.25: a sphere spinning at half the shear rate,
+//!   a falling cylinder's momentum budget;
+//! - [`cases::contacts_dry`]: dry collisions with the contacts of Table 1: momentum, energy,
+//!   restitution, closest approach;
+//! - [`cases::wet_lubrication`]: a sphere settling onto a fixed sphere in fluid: it slows before
+//!   contact, never overlaps and comes to rest on the contact;
+//! - [`cases::impeller`]: impellers' marker areas and normals; the single-phase torque budget,
+//!   power number and pumping direction at Re = 87.
 
 pub mod cases;
 pub mod fit;

@@ -4,13 +4,17 @@
 //! (before the system libraries `slurry` links are even installed).
 //!
 //! - `setup`: installs the system packages the build needs (libhdf5-dev, pkg-config) if missing.
-//! - `ci`: the test command (`.ci/run`): setup, fmt, clippy, tests, verification (quick tier).
+//! - `ci`: the test command (`.ci/run`): tidy, setup, fmt, clippy, tests, verification (quick tier).
+//! - `tidy`: the repository's rules as code (imports against ARCHITECTURE.md's module table,
+//!   modules and verification cases listed in the docs, file length, nothing disabled; see
+//!   `tidy.rs`).
 //! - `verify [ARGS...]`: setup, then the verification suite (`slurry-verify ARGS...`).
 //! - `reproduce ARGS...`: setup, then `slurry reproduce ARGS...` in release (the paper's cases).
 //! - `bench [--quick] [--no-peer] [ARGS...]`: kernel MLUPS beside the bandwidth ceiling and the
 //!   lbmpy peer (see `bench.rs`).
 
 mod bench;
+mod tidy;
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -21,7 +25,9 @@ const HELP: &str = "\
 usage: cargo xtask <command> [args]
 
 commands:
-  ci               setup, cargo fmt --check, clippy -D warnings, cargo test, verification (quick)
+  ci               tidy, setup, cargo fmt --check, clippy -D warnings, cargo test, verification (quick)
+  tidy             repository rules: imports against ARCHITECTURE.md's module table, modules and
+                   verification cases listed in the docs, file length, no ignored tests/todo/dbg
   verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
   reproduce CASE [--scale S] [--revolutions R] [--quick] [--out DIR] [--resume] [--all]
                    setup, then the paper's case CASE (pbt-ld2, ...): bed, run, statistics,
@@ -47,6 +53,7 @@ fn main() -> ExitCode {
     let t0 = Instant::now();
     let result = match cmd.as_deref() {
         Some("ci") => ci(&root),
+        Some("tidy") => tidy::tidy(&root).map_err(Failed),
         Some("verify") => setup().and_then(|()| verify(&root, &rest)),
         Some("setup") => setup(),
         Some("reproduce") => setup().and_then(|()| reproduce(&root, &rest)),
@@ -99,6 +106,9 @@ fn run(what: &str, mut cmd: Command) -> Step {
 
 /// The test command: each step printed as a header; stops at the first failure.
 fn ci(root: &Path) -> Step {
+    header("tidy: repository rules");
+    tidy::tidy(root).map_err(Failed)?;
+
     header("setup: system packages");
     setup()?;
 
