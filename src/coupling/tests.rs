@@ -246,3 +246,17 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
     assert!(sparse.0 == dense.0, "populations differ");
     assert_eq!(sparse.1, dense.1, "bodies differ");
 }
+
+/// Equal marker sets are shared (one allocation), different ones are not, and the order of
+/// the bodies is kept.
+#[test]
+fn equal_marker_sets_are_shared() {
+    let a = Sphere::new(6.0).markers(0.7);
+    let b = Sphere::new(8.0).markers(0.7);
+    let sets = shared_sets([a.clone(), b.clone(), a.clone(), b.clone(), a.clone()].into_iter());
+    assert!(Arc::ptr_eq(&sets[0], &sets[2]) && Arc::ptr_eq(&sets[0], &sets[4]));
+    assert!(Arc::ptr_eq(&sets[1], &sets[3]));
+    assert!(!Arc::ptr_eq(&sets[0], &sets[1]));
+    assert_eq!(&sets[0][..], &a[..]);
+    assert_eq!(&sets[1][..], &b[..]);
+}
