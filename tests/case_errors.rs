@@ -447,6 +447,7 @@ kind = "pbt"
 diameter = 20.0
 speed = 1.0e-3
 ramp_steps = 100
+blade_thickness = 1.0
 "#;
 
 /// `[impeller]`: defaults, keys of the other kind, ranges, fit in the box, and particles that
@@ -463,6 +464,14 @@ fn impeller_section_errors_name_key_and_range() {
 
     let with = |line: &str| format!("{IMPELLER}{line}\n");
     rejects(&with("blade_count = 3"), &["impeller.blade_count", "blades"]);
+    // Blades of the default thickness 3 D/132 = 0.45 are thinner than twice the default
+    // retraction of the forcing markers, and a retraction outside [0, 0.5) is refused.
+    rejects(
+        &IMPELLER.replace("blade_thickness = 1.0\n", ""),
+        &["ibm.retraction", "impeller.blade_thickness = 0.45"],
+    );
+    rejects(&format!("[ibm]\nretraction = 0.5\n\n{IMPELLER}"), &["ibm.retraction = 0.5", "[0, 0.5)"]);
+    rejects(&format!("[ibm]\nretraction = -0.1\n\n{IMPELLER}"), &["ibm.retraction = -0.1", "[0, 0.5)"]);
     rejects(&with("thickness = 1.0"), &["impeller.thickness", "only for kind = \"disk\""]);
     rejects(&with("pitch_deg = 95.0"), &["impeller.pitch_deg", "95", "0 < pitch < 90"]);
     rejects(&IMPELLER.replace("speed = 1.0e-3", "speed = 1.0e-2"), &["impeller.speed", "tip Mach", "0.3"]);

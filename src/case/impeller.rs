@@ -29,7 +29,7 @@ use crate::lattice::Face;
 use crate::rigid::impeller::{
     blade_vertical_extent, ImpellerGeometry, ImpellerKind, Pumping, RampedRotation,
 };
-use crate::rigid::{Impeller, Motion, RigidBody, Shape, Vec3};
+use crate::rigid::{Impeller, Motion, RetractionError, RigidBody, Shape, Vec3};
 
 /// The impeller kind of the case file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -231,6 +231,24 @@ impl Case {
                 invalid(format!("impeller.{}", e.key), e.value, e.allowed)
             }
         })?;
+        let retraction = self.ibm().retraction;
+        if let Err(e) = geometry.check_retraction(retraction) {
+            return Err(invalid(
+                "ibm.retraction",
+                retraction,
+                match e {
+                    RetractionError::TooThin { dimension, value, .. } => {
+                        let v = crate::util::fmt_num(value);
+                        format!(
+                            "must be below half of every impeller dimension: impeller.{dimension} = {v} leaves \
+                             {v} - 2 x {retraction} <= 0 for the forcing markers (lower the retraction, \
+                             thicken the part or scale the impeller up)"
+                        )
+                    }
+                    e => e.to_string(),
+                },
+            ));
+        }
         let speed = s.speed;
         let tip_mach = mach([PI * speed * d, 0.0, 0.0]);
         if !(speed.is_finite() && speed != 0.0) || tip_mach > self.run.mach_limit {

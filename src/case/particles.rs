@@ -17,13 +17,18 @@ use serde::{Deserialize, Serialize};
 use super::placement::{self, BoxGeometry, CellList, RandomRequest, ShapeDims};
 use super::{fmt_vec, invalid, mach, BoundarySpec, Case, CaseErrorKind};
 use crate::contact::ContactParams;
-use crate::coupling::CouplingParams;
+use crate::coupling::{CouplingParams, DEFAULT_RETRACTION};
 use crate::ibm::DeltaKernel;
 use crate::lattice::{Face, CS2};
 use crate::rigid::{Cylinder, Motion, Quat, RigidBody, Shape, Sphere, Vec3, DEFAULT_MARKER_SPACING};
 
 /// Allowed marker spacings (lattice units), inclusive.
 pub const MARKER_SPACING_RANGE: (f64, f64) = (0.3, 1.0);
+/// Allowed retractions of the forcing markers (lattice units): `[0, 0.5)`. The upper bound
+/// keeps every particle solid ([`MIN_PARTICLE_SIZE`] is 1, so every dimension exceeds
+/// `2 r_d`) and stays within the delta kernels' diffuse layer, which is what the retraction
+/// compensates; an impeller's thin parts are checked against it on their own.
+pub const RETRACTION_RANGE: (f64, f64) = (0.0, 0.5);
 /// Largest allowed deviation of an orientation quaternion's norm from 1.
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-6;
 /// Largest allowed `random_particles.volume_fraction`.
@@ -98,6 +103,17 @@ pub struct IbmSection {
     /// Target spacing of the surface markers, lattice units (0.3 … 1.0; default 0.7).
     #[serde(default = "default_marker_spacing")]
     pub marker_spacing: f64,
+    /// Retraction of the forcing markers into every body, lattice units (`0 ≤ r_d < 0.5`;
+    /// default [`DEFAULT_RETRACTION`], calibrated on the Stokes drag of a sphere array for
+    /// the Roma 3-point kernel and one iteration). Only the markers that force the fluid
+    /// move; volumes, masses, the interior-fluid term and the contact markers keep the true
+    /// shape ([`crate::coupling`], "The immersed boundary's effective size").
+    #[serde(default = "default_retraction")]
+    pub retraction: f64,
+}
+
+fn default_retraction() -> f64 {
+    DEFAULT_RETRACTION
 }
 
 fn one_iteration() -> usize {
@@ -114,7 +130,12 @@ fn one() -> f64 {
 
 impl Default for IbmSection {
     fn default() -> Self {
-        Self { kernel: DeltaKernel::default(), iterations: 1, marker_spacing: DEFAULT_MARKER_SPACING }
+        Self {
+            kernel: DeltaKernel::default(),
+            iterations: 1,
+            marker_spacing: DEFAULT_MARKER_SPACING,
+            retraction: DEFAULT_RETRACTION,
+        }
     }
 }
 
@@ -454,6 +475,7 @@ impl Case {
             kernel: ibm.kernel,
             iterations: ibm.iterations,
             marker_spacing: ibm.marker_spacing,
+            retraction: ibm.retraction,
             gravity: self.gravity(),
             contacts: self.contacts.map(|c| c.params()),
             contact_substeps: self.contacts.map_or(crate::contact::DEFAULT_SUBSTEPS, |c| c.substeps),
@@ -544,6 +566,17 @@ impl Case {
                     ibm.marker_spacing,
                     format!(
                         "must be in [{lo}, {hi}] (lattice units; the paper uses 0.5-0.75; default {DEFAULT_MARKER_SPACING})"
+                    ),
+                ));
+            }
+            let (lo, hi) = RETRACTION_RANGE;
+            if !(ibm.retraction.is_finite() && lo <= ibm.retraction && ibm.retraction < hi) {
+                return Err(invalid(
+                    "ibm.retraction",
+                    ibm.retraction,
+                    format!(
+                        "must be in [{lo}, {hi}) (lattice units: how far the forcing markers are moved into every \
+                         body; default {DEFAULT_RETRACTION}, calibrated for kernel = \"roma3\", iterations = 1)"
                     ),
                 ));
             }
