@@ -447,7 +447,7 @@ kind = "pbt"
 diameter = 20.0
 speed = 1.0e-3
 ramp_steps = 100
-blade_thickness = 1.0
+blade_thickness = 0.75
 "#;
 
 /// `[impeller]`: defaults, keys of the other kind, ranges, fit in the box, and particles that
@@ -467,7 +467,7 @@ fn impeller_section_errors_name_key_and_range() {
     // Blades of the default thickness 3 D/132 = 0.45 are thinner than twice the default
     // retraction of the forcing markers, and a retraction outside [0, 0.5) is refused.
     rejects(
-        &IMPELLER.replace("blade_thickness = 1.0\n", ""),
+        &IMPELLER.replace("blade_thickness = 0.75\n", ""),
         &["ibm.retraction", "impeller.blade_thickness = 0.45"],
     );
     rejects(&format!("[ibm]\nretraction = 0.5\n\n{IMPELLER}"), &["ibm.retraction = 0.5", "[0, 0.5)"]);

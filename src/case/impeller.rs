@@ -231,24 +231,6 @@ impl Case {
                 invalid(format!("impeller.{}", e.key), e.value, e.allowed)
             }
         })?;
-        let retraction = self.ibm().retraction;
-        if let Err(e) = geometry.check_retraction(retraction) {
-            return Err(invalid(
-                "ibm.retraction",
-                retraction,
-                match e {
-                    RetractionError::TooThin { dimension, value, .. } => {
-                        let v = crate::util::fmt_num(value);
-                        format!(
-                            "must be below half of every impeller dimension: impeller.{dimension} = {v} leaves \
-                             {v} - 2 x {retraction} <= 0 for the forcing markers (lower the retraction, \
-                             thicken the part or scale the impeller up)"
-                        )
-                    }
-                    e => e.to_string(),
-                },
-            ));
-        }
         let speed = s.speed;
         let tip_mach = mach([PI * speed * d, 0.0, 0.0]);
         if !(speed.is_finite() && speed != 0.0) || tip_mach > self.run.mach_limit {
@@ -279,6 +261,25 @@ impl Case {
                     ),
                 ));
             }
+        }
+        // Last: the impeller's own keys are reported first.
+        let retraction = self.ibm().retraction;
+        if let Err(e) = geometry.check_retraction(retraction) {
+            return Err(invalid(
+                "ibm.retraction",
+                retraction,
+                match e {
+                    RetractionError::TooThin { dimension, value, .. } => {
+                        let v = crate::util::fmt_num(value);
+                        format!(
+                            "must be below half of every impeller dimension: impeller.{dimension} = {v} leaves \
+                             {v} - 2 x {retraction} <= 0 for the forcing markers (lower the retraction, \
+                             thicken the part or scale the impeller up)"
+                        )
+                    }
+                    e => e.to_string(),
+                },
+            ));
         }
         let motion =
             RampedRotation { axis: Vec3::z(), revolutions_per_step: speed, ramp_steps: s.ramp_steps as f64 };

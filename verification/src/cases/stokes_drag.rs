@@ -27,7 +27,7 @@
 //! 4.0 %); the least-squares retraction over `d = 8–24` (weights `1/a²`: relative errors) is
 //! 0.361 from those runs and 0.364 from runs at 0.36 (the excess grows by about 0.002 with
 //! the retraction), rounded to 0.36. Residual drag errors at 0.36: `+1.6, +0.80, −0.13,
-//! −0.43 %` at `d = 6, 8, 12, 16` and `−0.5 %` at 24 (CSV; `d = 4` is in the table below).
+//! −0.43 %` at `d = 6, 8, 12, 16` and `−0.53 %` at 24 (CSV; `d = 4` is in the table below).
 //!
 //! **Metrics.**
 //! - Calibrated (`r_d = 0.36`, one forcing iteration): `K` and `K/1.530 − 1` per `d`, run to

@@ -236,6 +236,7 @@ fn plots(runs: &[Run]) {
         uv.push(Series::new(label(r), r.history.iter().map(|h| (h.0, h.2)).collect(), SeriesStyle::Line));
     }
     let mut cases: Vec<usize> = runs.iter().map(|r| r.case).collect();
+    cases.sort_unstable();
     cases.dedup();
     for c in cases {
         let t_end =
@@ -347,7 +348,11 @@ pub fn run(tier: Tier) -> CaseOutput {
                  the contact range delta0 = 0.5 (the excess is the value): it has landed and does not leave",
             ));
         }
-        eprintln!("  {tag}: {}", if r.rebound > 0.01 * D_PHYS { "rebounds" } else { "no rebound" });
+        eprintln!(
+            "  {tag} r_d={}: {}",
+            r.retraction,
+            if r.rebound > 0.01 * D_PHYS { "rebounds" } else { "no rebound" }
+        );
     }
     out.tables.push(t);
     plots(&runs);
