@@ -400,7 +400,9 @@ fn contact_section_errors_name_key_and_range() {
 /// A closed 40 x 40 x 48 box with a PBT of D = 20 at its centre.
 fn impeller() -> String {
     let closed_box = case_toml([40, 40, 48], "nu = 0.02", "", "steps = 10\noutput_every = 5");
-    format!("{closed_box}\n[impeller]\nkind = \"pbt\"\ndiameter = 20.0\nspeed = 1.0e-3\nramp_steps = 100\n")
+    format!(
+        "{closed_box}\n[impeller]\nkind = \"pbt\"\ndiameter = 20.0\nspeed = 1.0e-3\nramp_steps = 100\nblade_thickness = 0.75\n"
+    )
 }
 
 /// `[impeller]`: defaults, keys of the other kind, ranges, fit in the box, and particles that
@@ -417,6 +419,14 @@ fn impeller_section_errors_name_key_and_range() {
 
     let with = |line: &str| format!("{}{line}\n", impeller());
     rejects(&with("blade_count = 3"), &["impeller.blade_count", "blades"]);
+    // Blades of the default thickness 3 D/132 = 0.45 are thinner than twice the default
+    // retraction of the forcing markers, and a retraction outside [0, 0.5) is refused.
+    rejects(
+        &impeller().replace("blade_thickness = 0.75\n", ""),
+        &["ibm.retraction", "impeller.blade_thickness = 0.45"],
+    );
+    rejects(&format!("[ibm]\nretraction = 0.5\n\n{}", impeller()), &["ibm.retraction = 0.5", "[0, 0.5)"]);
+    rejects(&format!("[ibm]\nretraction = -0.1\n\n{}", impeller()), &["ibm.retraction = -0.1", "[0, 0.5)"]);
     rejects(&with("thickness = 1.0"), &["impeller.thickness", "only for kind = \"disk\""]);
     rejects(&with("pitch_deg = 95.0"), &["impeller.pitch_deg", "95", "0 < pitch < 90"]);
     rejects(&impeller().replace("speed = 1.0e-3", "speed = 1.0e-2"), &["impeller.speed", "tip Mach", "0.3"]);

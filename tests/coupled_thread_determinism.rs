@@ -36,6 +36,7 @@ diameter = 18.0
 speed = 2.5e-3
 ramp_steps = 20
 centre = [17.5, 17.5, 20.0]
+blade_thickness = 0.75
 
 [[random_particles]]
 shape = "cylinder"

@@ -29,7 +29,7 @@ use crate::lattice::Face;
 use crate::rigid::impeller::{
     blade_vertical_extent, ImpellerGeometry, ImpellerKind, Pumping, RampedRotation,
 };
-use crate::rigid::{Impeller, Motion, RigidBody, Shape, Vec3};
+use crate::rigid::{Impeller, Motion, RetractionError, RigidBody, Shape, Vec3};
 
 /// The impeller kind of the case file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -261,6 +261,25 @@ impl Case {
                     ),
                 ));
             }
+        }
+        // Last: the impeller's own keys are reported first.
+        let retraction = self.ibm().retraction;
+        if let Err(e) = geometry.check_retraction(retraction) {
+            return Err(invalid(
+                "ibm.retraction",
+                retraction,
+                match e {
+                    RetractionError::TooThin { dimension, value, .. } => {
+                        let v = crate::util::fmt_num(value);
+                        format!(
+                            "must be below half of every impeller dimension: impeller.{dimension} = {v} leaves \
+                             {v} - 2 x {retraction} <= 0 for the forcing markers (lower the retraction, \
+                             thicken the part or scale the impeller up)"
+                        )
+                    }
+                    e => e.to_string(),
+                },
+            ));
         }
         let motion =
             RampedRotation { axis: Vec3::z(), revolutions_per_step: speed, ramp_steps: s.ramp_steps as f64 };

@@ -29,8 +29,11 @@ use super::particles::{particle_surface_area, ShapeKind};
 use super::Case;
 use crate::lattice::Q;
 
-/// Bytes per surface marker: the body-frame marker (56), the coupling's per-marker arrays
-/// (about 130), the stencil (about 160) and the contact engine's bins, rounded up.
+/// Bytes per surface marker: the body-frame marker twice (56 each: the coupling keeps the
+/// forcing markers, retracted, and the contact markers, on the true surface; the retracted
+/// set has fewer markers, so counting the true surface's is an upper bound), the coupling's
+/// per-marker arrays (about 130), the stencil (about 160) and the contact engine's bins,
+/// rounded up.
 pub const BYTES_PER_MARKER: u64 = 512;
 /// Bytes per particle: the rigid body, its loads and states, a frame of `particles.h5`.
 pub const BYTES_PER_PARTICLE: u64 = 1024;

@@ -45,6 +45,7 @@ mod keys;
 pub mod memory;
 pub mod particles;
 pub mod placement;
+mod sections;
 
 use std::fmt;
 use std::path::{Path, PathBuf};

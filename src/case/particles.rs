@@ -1,4 +1,4 @@
-//! The particle sections of a case file: `gravity`, `[ibm]`, `[[particles]]` and
+//! The particle sections of a case file: `gravity`, `[[particles]]` and
 //! `[[random_particles]]`; their validation; and what a run needs from them: the initial
 //! particles ([`Case::particle_inits`], [`Case::bodies`]) and the coupling options
 //! ([`Case::coupling_params`]). The format is documented in `docs/case-format.md`.
@@ -15,15 +15,19 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::placement::{self, BoxGeometry, CellList, RandomRequest, ShapeDims};
+pub use super::sections::{ContactsSection, IbmSection};
 use super::{fmt_vec, invalid, mach, BoundarySpec, Case, CaseErrorKind};
-use crate::contact::ContactParams;
-use crate::coupling::CouplingParams;
-use crate::ibm::DeltaKernel;
+use crate::coupling::{CouplingParams, DEFAULT_RETRACTION};
 use crate::lattice::{Face, CS2};
 use crate::rigid::{Cylinder, Motion, Quat, RigidBody, Shape, Sphere, Vec3, DEFAULT_MARKER_SPACING};
 
 /// Allowed marker spacings (lattice units), inclusive.
 pub const MARKER_SPACING_RANGE: (f64, f64) = (0.3, 1.0);
+/// Allowed retractions of the forcing markers (lattice units): `[0, 0.5)`. The upper bound
+/// keeps every particle solid ([`MIN_PARTICLE_SIZE`] is 1, so every dimension exceeds
+/// `2 r_d`) and stays within the delta kernels' diffuse layer, which is what the retraction
+/// compensates; an impeller's thin parts are checked against it on their own.
+pub const RETRACTION_RANGE: (f64, f64) = (0.0, 0.5);
 /// Largest allowed deviation of an orientation quaternion's norm from 1.
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-6;
 /// Largest allowed `random_particles.volume_fraction`.
@@ -85,124 +89,8 @@ impl MotionKind {
     }
 }
 
-/// `[ibm]`: the immersed-boundary numerics (used when the case has particles).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct IbmSection {
-    /// Regularised delta function: `"roma3"` (default), `"peskin4"` or `"linear"`.
-    #[serde(default)]
-    pub kernel: DeltaKernel,
-    /// Direct-forcing iterations per time step (≥ 1; default 1).
-    #[serde(default = "one_iteration")]
-    pub iterations: usize,
-    /// Target spacing of the surface markers, lattice units (0.3 … 1.0; default 0.7).
-    #[serde(default = "default_marker_spacing")]
-    pub marker_spacing: f64,
-}
-
-fn one_iteration() -> usize {
-    1
-}
-
-fn default_marker_spacing() -> f64 {
-    DEFAULT_MARKER_SPACING
-}
-
 fn one() -> f64 {
     1.0
-}
-
-impl Default for IbmSection {
-    fn default() -> Self {
-        Self { kernel: DeltaKernel::default(), iterations: 1, marker_spacing: DEFAULT_MARKER_SPACING }
-    }
-}
-
-/// `[contacts]`: the contact model of the paper's Table 1 between particles and with the box
-/// walls. Present (even empty) = contacts on, with Table 1's values for every key not given;
-/// absent = no contacts.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ContactsSection {
-    /// Spring constant `k` (> 0; Table 1: 5.0).
-    #[serde(default = "contact_defaults::k")]
-    pub k: f64,
-    /// Elastic range `δ0` (> 0; 0.5).
-    #[serde(default = "contact_defaults::delta0")]
-    pub delta0: f64,
-    /// Tangential range `λ` (> 0; 0.5).
-    #[serde(default = "contact_defaults::lambda")]
-    pub lambda: f64,
-    /// Normal lubrication coefficient `kⁿ` (> 0; 5.0).
-    #[serde(default = "contact_defaults::k_n")]
-    pub k_n: f64,
-    /// Lubrication range `δ_d` (> 0; 1.0).
-    #[serde(default = "contact_defaults::delta_d")]
-    pub delta_d: f64,
-    /// Saturation distance `δ_sat` (in (0, δ_d); 0.2).
-    #[serde(default = "contact_defaults::delta_sat")]
-    pub delta_sat: f64,
-    /// Tangential lubrication coefficient `kᵗ` (> 0; 0.5).
-    #[serde(default = "contact_defaults::k_t")]
-    pub k_t: f64,
-    /// Elastic force on (default true).
-    #[serde(default = "contact_defaults::on")]
-    pub elastic: bool,
-    /// Lubrication forces on (default true).
-    #[serde(default = "contact_defaults::on")]
-    pub lubrication: bool,
-    /// Contact sub-steps per fluid step (1 … 1024; default `contact::DEFAULT_SUBSTEPS`).
-    #[serde(default = "contact_defaults::substeps")]
-    pub substeps: usize,
-}
-
-/// Serde defaults of [`ContactsSection`]: Table 1.
-mod contact_defaults {
-    use crate::contact::{ContactParams, DEFAULT_SUBSTEPS};
-    pub fn k() -> f64 {
-        ContactParams::default().k
-    }
-    pub fn delta0() -> f64 {
-        ContactParams::default().delta0
-    }
-    pub fn lambda() -> f64 {
-        ContactParams::default().lambda
-    }
-    pub fn k_n() -> f64 {
-        ContactParams::default().k_n
-    }
-    pub fn delta_d() -> f64 {
-        ContactParams::default().delta_d
-    }
-    pub fn delta_sat() -> f64 {
-        ContactParams::default().delta_sat
-    }
-    pub fn k_t() -> f64 {
-        ContactParams::default().k_t
-    }
-    pub fn on() -> bool {
-        true
-    }
-    pub fn substeps() -> usize {
-        DEFAULT_SUBSTEPS
-    }
-}
-
-impl ContactsSection {
-    /// The model parameters.
-    pub fn params(&self) -> ContactParams {
-        ContactParams {
-            k: self.k,
-            delta0: self.delta0,
-            lambda: self.lambda,
-            k_n: self.k_n,
-            delta_d: self.delta_d,
-            delta_sat: self.delta_sat,
-            k_t: self.k_t,
-            elastic: self.elastic,
-            lubrication: self.lubrication,
-        }
-    }
 }
 
 /// One `[[particles]]` entry: a particle given explicitly.
@@ -454,6 +342,7 @@ impl Case {
             kernel: ibm.kernel,
             iterations: ibm.iterations,
             marker_spacing: ibm.marker_spacing,
+            retraction: ibm.retraction,
             gravity: self.gravity(),
             contacts: self.contacts.map(|c| c.params()),
             contact_substeps: self.contacts.map_or(crate::contact::DEFAULT_SUBSTEPS, |c| c.substeps),
@@ -544,6 +433,17 @@ impl Case {
                     ibm.marker_spacing,
                     format!(
                         "must be in [{lo}, {hi}] (lattice units; the paper uses 0.5-0.75; default {DEFAULT_MARKER_SPACING})"
+                    ),
+                ));
+            }
+            let (lo, hi) = RETRACTION_RANGE;
+            if !(ibm.retraction.is_finite() && lo <= ibm.retraction && ibm.retraction < hi) {
+                return Err(invalid(
+                    "ibm.retraction",
+                    ibm.retraction,
+                    format!(
+                        "must be in [{lo}, {hi}) (lattice units: how far the forcing markers are moved into every \
+                         body; default {DEFAULT_RETRACTION}, calibrated for kernel = \"roma3\", iterations = 1)"
                     ),
                 ));
             }

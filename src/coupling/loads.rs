@@ -51,7 +51,7 @@ impl<T: Real + Planes> Coupled<T> {
         let averaged = step_bodies(
             self.contacts.as_mut(),
             &mut self.bodies,
-            &self.markers,
+            &self.contact_markers,
             self.contact_substeps,
             |b: usize, body: &RigidBody| {
                 let l = &loads[b];

@@ -1,6 +1,6 @@
 //! A rectangular box (cuboid): the flat blades of the pitched-blade turbine.
 
-use super::shape::{Marker, Shape};
+use super::shape::{check_depth, shrink, Marker, RetractionError, Shape};
 use super::{Mat3, Vec3};
 
 /// A solid box with half extents `a = (a_x, a_y, a_z)` along the body axes, centred at the
@@ -122,6 +122,19 @@ impl Shape for Cuboid {
             }
         }
         out
+    }
+
+    /// The markers of the box with every edge shortened by `2 depth` (same centre and axes:
+    /// the inner parallel body of a box).
+    fn retracted_markers(&self, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
+        check_depth(depth)?;
+        let e = 2.0 * self.half;
+        let size = Vec3::new(
+            shrink("cuboid", "x edge", e.x, depth)?,
+            shrink("cuboid", "y edge", e.y, depth)?,
+            shrink("cuboid", "z edge", e.z, depth)?,
+        );
+        Ok(Cuboid::new(size).markers(spacing))
     }
 }
 

@@ -3,7 +3,7 @@
 
 use std::f64::consts::{FRAC_1_SQRT_2, PI, TAU};
 
-use super::shape::{ring, Marker, Shape};
+use super::shape::{check_depth, ring, shrink, Marker, RetractionError, Shape};
 use super::{Mat3, Vec3};
 
 /// A solid circular cylinder of diameter `d` and length `ℓ`, axis along body `z`, centred at
@@ -185,6 +185,16 @@ impl Shape for Cylinder {
             }
         }
         out
+    }
+
+    /// The markers of the cylinder of diameter `d − 2 depth` and length `ℓ − 2 depth`
+    /// (same axis and centre; the inner parallel body of a flat-capped cylinder is exactly
+    /// that, with sharp rims).
+    fn retracted_markers(&self, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
+        check_depth(depth)?;
+        let d = shrink("cylinder", "diameter", self.diameter, depth)?;
+        let l = shrink("cylinder", "length", self.length, depth)?;
+        Ok(Cylinder::new(d, l).markers(spacing))
     }
 }
 

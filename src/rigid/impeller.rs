@@ -15,7 +15,7 @@ use std::f64::consts::{PI, TAU};
 use std::sync::Arc;
 
 use super::body::PrescribedMotion;
-use super::shape::{ring, Marker, Shape};
+use super::shape::{check_depth, ring, shrink, Marker, RetractionError, Shape};
 use super::{integrate, Cuboid, Cylinder, Mat3, Quat, Vec3};
 
 /// The direction a pitched-blade turbine pumps when it turns at positive angular velocity
@@ -213,6 +213,36 @@ impl ImpellerGeometry {
     }
 }
 
+impl ImpellerGeometry {
+    /// Checks that every part stays solid when the forcing markers are retracted by `depth`
+    /// ([`Shape::retracted_markers`]): the disk's or the blades' thickness, the blade width,
+    /// the hub's diameter and height and the shaft's diameter must each exceed `2 depth`.
+    /// The error names the dimension by its case-file key.
+    ///
+    /// # Errors
+    /// The first dimension not larger than `2 depth`, or a negative depth.
+    pub fn check_retraction(&self, depth: f64) -> Result<(), RetractionError> {
+        check_depth(depth)?;
+        let s = "impeller";
+        shrink(s, "diameter", self.diameter, depth)?;
+        match self.kind {
+            ImpellerKind::Disk { thickness } => {
+                shrink(s, "thickness", thickness, depth)?;
+            }
+            ImpellerKind::PitchedBlade { blade_width, blade_thickness, hub_diameter, hub_height, .. } => {
+                shrink(s, "blade_thickness", blade_thickness, depth)?;
+                shrink(s, "blade_width", blade_width, depth)?;
+                shrink(s, "hub_diameter", hub_diameter, depth)?;
+                shrink(s, "hub_height", hub_height, depth)?;
+            }
+        }
+        if self.shaft_length > 0.0 {
+            shrink(s, "shaft_diameter", self.shaft_diameter, depth)?;
+        }
+        Ok(())
+    }
+}
+
 /// The vertical extent of a blade of width `w` and thickness `t` pitched at `θ`:
 /// `w sin θ + t cos θ`.
 pub fn blade_vertical_extent(pitch: f64, width: f64, thickness: f64) -> f64 {
@@ -391,14 +421,16 @@ impl Impeller {
         }
     }
 
-    /// The markers of part `i` (impeller frame) at `spacing`, before removing those inside
-    /// other parts.
-    fn part_markers(&self, i: usize, spacing: f64) -> Vec<Marker> {
+    /// The markers of part `i` (impeller frame) at `spacing`, retracted by `depth`
+    /// ([`Shape::retracted_markers`]; 0: on the surface), before removing those inside other
+    /// parts. The shaft's open mantle moves in to radius `r − depth` and starts `depth`
+    /// lower, on the retracted top of the disk or hub; its top stays at the lid.
+    fn part_markers(&self, i: usize, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
         let part = &self.parts[i];
-        match part.markers {
+        Ok(match part.markers {
             PartMarkers::Shape => part
                 .shape
-                .markers(spacing)
+                .retracted_markers(spacing, depth)?
                 .into_iter()
                 .map(|m| Marker {
                     position: part.rotation * m.position + part.offset,
@@ -407,6 +439,7 @@ impl Impeller {
                 })
                 .collect(),
             PartMarkers::Tube { r, z0, z1 } => {
+                let (r, z0) = (r - depth, z0 - depth);
                 let nz = (((z1 - z0) / spacing).round() as usize).max(1);
                 let hz = (z1 - z0) / nz as f64;
                 let m = ((TAU * r / spacing).round() as usize).max(3);
@@ -418,7 +451,7 @@ impl Impeller {
                 }
                 out
             }
-        }
+        })
     }
 
     /// The radius of the smallest cylinder about the axis that holds the impeller: `D/2` for
@@ -452,17 +485,36 @@ impl Impeller {
 
     /// The markers at `spacing` with the index of the part each comes from.
     pub fn markers_by_part(&self, spacing: f64) -> Vec<(usize, Marker)> {
+        self.retracted_markers_by_part(spacing, 0.0).expect("depth 0 is always possible")
+    }
+
+    /// The markers at `spacing` retracted by `depth` ([`Shape::retracted_markers`]), with the
+    /// index of the part each comes from: each part's retracted markers minus those strictly
+    /// inside another *retracted* part (`sd_j < −depth`). Where two parts meet at a concave
+    /// edge (a blade entering the hub, the shaft on the disk), the retracted parts' surfaces
+    /// meet on the inner parallel surface of the union, so the kept markers lie at depth
+    /// `depth` in the union (the deepest part's depth, as [`Impeller`]'s signed distance
+    /// measures it inside).
+    ///
+    /// # Errors
+    /// A part too thin for `depth` ([`ImpellerGeometry::check_retraction`]).
+    pub fn retracted_markers_by_part(
+        &self,
+        spacing: f64,
+        depth: f64,
+    ) -> Result<Vec<(usize, Marker)>, RetractionError> {
+        self.geometry.check_retraction(depth)?;
         let mut out = Vec::new();
         for i in 0..self.parts.len() {
-            for m in self.part_markers(i, spacing) {
-                let inside_other =
-                    (0..self.parts.len()).any(|j| j != i && self.parts[j].signed_distance(&m.position) < 0.0);
+            for m in self.part_markers(i, spacing, depth)? {
+                let inside_other = (0..self.parts.len())
+                    .any(|j| j != i && self.parts[j].signed_distance(&m.position) < -depth);
                 if !inside_other {
                     out.push((i, m));
                 }
             }
         }
-        out
+        Ok(out)
     }
 }
 
@@ -542,6 +594,12 @@ impl Shape for Impeller {
     fn markers(&self, spacing: f64) -> Vec<Marker> {
         assert!(spacing.is_finite() && spacing > 0.0, "marker spacing must be positive, got {spacing}");
         self.markers_by_part(spacing).into_iter().map(|(_, m)| m).collect()
+    }
+
+    /// [`Impeller::retracted_markers_by_part`] without the part indices.
+    fn retracted_markers(&self, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
+        assert!(spacing.is_finite() && spacing > 0.0, "marker spacing must be positive, got {spacing}");
+        Ok(self.retracted_markers_by_part(spacing, depth)?.into_iter().map(|(_, m)| m).collect())
     }
 }
 

@@ -37,7 +37,7 @@ pub use cuboid::Cuboid;
 pub use cylinder::Cylinder;
 pub use impeller::{Impeller, ImpellerGeometry, ImpellerKind, Pumping, RampedRotation};
 pub use integrate::LoadScheme;
-pub use shape::{Marker, MassProperties, Shape, DEFAULT_MARKER_SPACING};
+pub use shape::{Marker, MassProperties, RetractionError, Shape, DEFAULT_MARKER_SPACING};
 pub use sphere::Sphere;
 
 /// Three-vector (`nalgebra::Vector3<f64>`).

@@ -101,6 +101,86 @@ pub trait Shape: Send + Sync + std::fmt::Debug {
     /// Surface markers at (about) `spacing` apart, with outward unit normals and area weights
     /// summing to [`Shape::surface_area`]. Each shape documents its layout.
     fn markers(&self, spacing: f64) -> Vec<Marker>;
+
+    /// The immersed boundary's forcing markers: the markers (at `spacing`, the same layout as
+    /// [`Shape::markers`]) of the surface **retracted** inward by `depth ≥ 0`, i.e. of the
+    /// inner parallel body `{sd ≤ −depth}`, with that surface's outward normals and **its**
+    /// area weights (they sum to the retracted surface's area, not to
+    /// [`Shape::surface_area`]). Every marker lies at signed distance `−depth` from the true
+    /// surface. For the convex shapes here the inner parallel body is the same shape with
+    /// every dimension reduced by `2 depth` (sphere `d − 2r`; cylinder `d − 2r`, `ℓ − 2r`,
+    /// rims included; cuboid every edge `− 2r`); an impeller retracts each part and drops
+    /// the markers inside another retracted part. `depth = 0` gives [`Shape::markers`]
+    /// exactly. Why the markers are retracted, and by how much: [`crate::coupling`],
+    /// "The immersed boundary's effective size".
+    ///
+    /// The default supports `depth = 0` only.
+    ///
+    /// # Errors
+    /// A dimension of the shape not larger than `2 depth` (nothing would be left), or
+    /// `depth` negative or not finite.
+    fn retracted_markers(&self, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
+        check_depth(depth)?;
+        if depth == 0.0 {
+            Ok(self.markers(spacing))
+        } else {
+            Err(RetractionError::Unsupported { shape: self.name() })
+        }
+    }
+}
+
+/// Why a shape's markers cannot be retracted ([`Shape::retracted_markers`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RetractionError {
+    /// The depth is negative or not finite.
+    #[error("retraction {0} must be finite and >= 0")]
+    Depth(f64),
+    /// A dimension of the shape is not larger than twice the depth.
+    #[error(
+        "a retraction of {depth} needs the {shape}'s {dimension} ({value}) to exceed 2 x {depth} = {}; \
+         lower [ibm].retraction or resolve the {shape} with more lattice nodes",
+        2.0 * depth
+    )]
+    TooThin {
+        /// The shape (or impeller part).
+        shape: &'static str,
+        /// The dimension (`"diameter"`, `"length"`, `"blade_thickness"`, …).
+        dimension: &'static str,
+        /// Its value (lattice units).
+        value: f64,
+        /// The retraction depth.
+        depth: f64,
+    },
+    /// The shape does not implement retraction.
+    #[error("the {shape} has no retracted markers")]
+    Unsupported {
+        /// The shape.
+        shape: &'static str,
+    },
+}
+
+/// `depth` must be finite and non-negative.
+pub(crate) fn check_depth(depth: f64) -> Result<(), RetractionError> {
+    if depth.is_finite() && depth >= 0.0 {
+        Ok(())
+    } else {
+        Err(RetractionError::Depth(depth))
+    }
+}
+
+/// `value − 2 depth`, or [`RetractionError::TooThin`] if that is not positive.
+pub(crate) fn shrink(
+    shape: &'static str,
+    dimension: &'static str,
+    value: f64,
+    depth: f64,
+) -> Result<f64, RetractionError> {
+    let v = value - 2.0 * depth;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(RetractionError::TooThin { shape, dimension, value, depth })
+    }
 }
 
 /// The chord `(t₀, t₁)` of the line `p + t·dir` (`|dir| = 1`) through the open ball of radius

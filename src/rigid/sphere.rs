@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use super::shape::{sphere_chord, Marker, Shape};
+use super::shape::{check_depth, shrink, sphere_chord, Marker, RetractionError, Shape};
 use super::{Mat3, Vec3};
 
 /// A sphere of diameter `d` (radius `R = d/2`) centred at the origin.
@@ -92,6 +92,12 @@ impl Shape for Sphere {
                 Marker { position: normal * r, normal, area }
             })
             .collect()
+    }
+
+    /// The markers of the sphere of diameter `d − 2 depth` (concentric).
+    fn retracted_markers(&self, spacing: f64, depth: f64) -> Result<Vec<Marker>, RetractionError> {
+        check_depth(depth)?;
+        Ok(Sphere::new(shrink("sphere", "diameter", self.diameter, depth)?).markers(spacing))
     }
 }
 

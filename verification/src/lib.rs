@@ -25,7 +25,10 @@
 //! - [`cases::torque_free`]: torque-free tops: energy and angular momentum to second order,
 //!   Dzhanibekov flip near the intermediate axis only, free precession against the exact solution;
 //! - [`cases::stokes_drag`]: IBM drag of a periodic array of fixed spheres against Zick & Homsy,
-//!   first order;
+//!   with the calibrated retraction of the forcing markers (and the uncalibrated first-order
+//!   study);
+//! - [`cases::ten_cate`]: the settling sphere of ten Cate et al. (2002), cases E1–E4, peak
+//!   velocity against the measured one (validation of the retraction, calibrated elsewhere);
 //! - [`cases::free_particles`]: free bodies at γ = 1.25: a sphere spinning at half the shear rate,
 //!   a falling cylinder's momentum budget;
 //! - [`cases::contacts_dry`]: dry collisions with the contacts of Table 1: momentum, energy,

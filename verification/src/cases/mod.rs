@@ -11,6 +11,7 @@ pub mod poiseuille;
 pub mod quaternion_norm;
 pub mod stokes_drag;
 pub mod taylor_green;
+pub mod ten_cate;
 pub mod torque_free;
 pub mod wet_lubrication;
 
@@ -85,6 +86,12 @@ pub fn all() -> Vec<Case> {
             summary:
                 "sphere settling onto a fixed sphere in fluid: slows before contact (lubrication), no overlap",
             run: wet_lubrication::run,
+        },
+        Case {
+            name: "ten_cate",
+            summary:
+                "sphere settling in a closed box (ten Cate et al. 2002, E1-E4): peak velocity vs measured",
+            run: ten_cate::run,
         },
         Case {
             name: "impeller",
