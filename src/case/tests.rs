@@ -564,6 +564,7 @@ kind = "pbt"
 diameter = 20.0
 speed = 1.0e-3
 ramp_steps = 100
+blade_thickness = 0.75
 
 [contacts]
 substeps = 4
