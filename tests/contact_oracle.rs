@@ -215,14 +215,8 @@ fn configurations_exercise_the_model() {
 /// Moves every body of `c` by a random translation and rotation whose largest marker
 /// displacement bound, `|Δc| + r ‖ΔR‖_F` (the list's criterion), is `frac` of `limit`.
 fn jiggle(c: &mut Config, rng: &mut SplitMix64, limit: f64, frac: f64) {
-    for (b, m) in c.bodies.iter_mut().zip(&c.markers) {
-        let r = m.iter().map(|mk| mk.position.norm()).fold(0.0, f64::max);
-        let axis = nalgebra::Unit::new_normalize(random_unit(rng));
-        // ‖R(θ) − I‖_F = 2√2 sin(θ/2) ≤ √2 θ: split the budget evenly.
-        let angle = 0.5 * frac * limit / (r.max(1e-9) * std::f64::consts::SQRT_2);
-        let shift = random_unit(rng) * (0.5 * frac * limit);
-        let q = Quat::from_axis_angle(&axis, angle) * b.orientation;
-        *b = b.clone().with_position(b.position + shift).with_orientation(q);
+    for k in 0..c.bodies.len() {
+        move_one(c, rng, k, frac * limit);
     }
 }
 
@@ -256,10 +250,12 @@ fn reused_list_stays_exact_and_rebuilds_when_bodies_move_too_far() {
     assert!(exercised >= 12, "only {exercised} configurations kept touching pairs after the move");
 }
 
-/// Moves body `k` of `c` by a random translation and rotation of displacement bound `limit`.
+/// Moves body `k` of `c` by a random translation and rotation whose largest marker
+/// displacement bound, `|Δc| + r ‖ΔR‖_F` (the list's criterion), is at most `limit`.
 fn move_one(c: &mut Config, rng: &mut SplitMix64, k: usize, limit: f64) {
     let r = c.markers[k].iter().map(|mk| mk.position.norm()).fold(0.0, f64::max);
     let axis = nalgebra::Unit::new_normalize(random_unit(rng));
+    // ‖R(θ) − I‖_F = 2√2 sin(θ/2) ≤ √2 θ: split the budget evenly.
     let angle = 0.5 * limit / (r.max(1e-9) * std::f64::consts::SQRT_2);
     let shift = random_unit(rng) * (0.5 * limit);
     let b = &mut c.bodies[k];
