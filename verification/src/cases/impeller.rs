@@ -253,9 +253,10 @@ pub fn run(tier: Tier) -> CaseOutput {
         out.tables.push(t);
     }
 
+    // Three scales in the full tier: the observed order of Po_f and its Richardson limit.
     let scales: &[f64] = match tier {
         Tier::Quick => &[0.25],
-        Tier::Full => &[0.25, 0.5],
+        Tier::Full => &[0.25, 1.0 / 3.0, 0.5],
     };
     for kind in ["pbt", "disk"] {
         let mut t = Table::new(
@@ -324,6 +325,29 @@ pub fn run(tier: Tier) -> CaseOutput {
             eprintln!("  {kind}: Po_f change between the two finest scales {change:+.3}");
         }
         out.tables.push(t);
+        if po.len() == 3 {
+            // Grid spacing in units of the paper's: h = 1/s.
+            let h = [1.0 / scales[0], 1.0 / scales[1], 1.0 / scales[2]];
+            let mut o = Table::new(
+                format!("{kind} Po_f observed order (h = 1/s)"),
+                &[("order", true), ("richardson_po_fluid", true), ("finest_minus_limit_rel", true)],
+            );
+            match crate::fit::richardson3(h, [po[0], po[1], po[2]]) {
+                Some((p, limit)) => {
+                    let rel = (po[2] - limit) / limit;
+                    eprintln!(
+                        "  {kind}: Po_f observed order {p:.2}, Richardson limit {limit:.4} (s = 1/2 is {rel:+.3} off it)"
+                    );
+                    o.push(vec![p, limit, rel]);
+                }
+                None => {
+                    eprintln!("  {kind}: Po_f is not monotone over the three scales: no order (no table)")
+                }
+            }
+            if !o.column("order").is_empty() {
+                out.tables.push(o);
+            }
+        }
     }
     out
 }
