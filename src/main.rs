@@ -156,7 +156,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     let cache = PathBuf::from("target").join("reproduce").join("cache");
     let mut rows: Vec<CoupledBench> = Vec::new();
     println!(
-        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9}",
+        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>7} {:>7}",
         "case",
         "scale",
         "parts",
@@ -172,13 +172,15 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
         "markers",
         "listed",
         "touching",
-        "rebuilds"
+        "rebuilds",
+        "damp",
+        "spring"
     );
     for &s in &a.scales {
         for name in &cases {
             let r = pool.install(|| bench_case(name, s, &cache, a.warmup, a.steps, a.skin, false))?;
             println!(
-                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9}",
+                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
                 r.case,
                 r.scale,
                 r.particles,
@@ -194,7 +196,9 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
                 r.markers,
                 r.listed_pairs,
                 r.interacting_pairs,
-                format!("{}/{}", r.full_rebuilds, r.list_rebuilds)
+                format!("{}/{}", r.full_rebuilds, r.list_rebuilds),
+                r.max_damping_rate,
+                r.max_spring_rate
             );
             rows.push(r);
             if let Some(path) = &a.json {
@@ -204,7 +208,10 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
             }
         }
     }
-    println!("(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid)");
+    println!(
+        "(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid; damp, spring: the \
+         stiffest body's contact rates, per fluid step: explicit sub-steps need n_sub > damp/2 and n_sub > spring/2)"
+    );
     Ok(())
 }
 

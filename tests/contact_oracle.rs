@@ -347,3 +347,40 @@ fn sub_cycling_conserves_linear_momentum() {
         assert!((p1 - p0).norm() <= 1e-14 * (scale + impulse), "seed {seed}: {p0:?} -> {p1:?}");
     }
 }
+
+/// `ContactStats::damping_rate` and `spring_rate` of a sphere resting over the floor at a gap
+/// inside the lubrication range, against the sums formed here marker by marker from Table 1:
+/// `2 Σ kⁿ (1/max(δ, δ_sat) − 1/δ_d)/m` and `√(2 Σ k/m)` over the markers facing the floor
+/// within `δ_d` (resp. `δ0`), `w = 1` against a wall. Equal to round-off (the sums are formed
+/// in another order here).
+#[test]
+fn stiffness_rates_of_a_sphere_over_the_floor() {
+    let p = ContactParams::default();
+    let shape: Arc<dyn Shape> = Arc::new(Sphere::new(6.0));
+    let m = shape.markers(DEFAULT_MARKER_SPACING);
+    let floor = -0.5;
+    let lowest = m.iter().map(|k| k.position.z).fold(f64::INFINITY, f64::min);
+    let gap = 0.3;
+    let mut body = RigidBody::new(shape, 1.25, Motion::Free);
+    body.position = Vec3::new(10.0, 10.0, floor + gap - lowest);
+    let (mut c, mut k) = (0.0, 0.0);
+    for mk in &m {
+        let delta = body.position.z + mk.position.z - floor;
+        if mk.normal.z < 0.0 && delta < p.delta_d {
+            c += p.k_n * (1.0 / delta.max(p.delta_sat) - 1.0 / p.delta_d);
+            if delta < p.delta0 {
+                k += p.k;
+            }
+        }
+    }
+    assert!(c > 0.0 && k > 0.0, "the set-up must engage both parts");
+    let walls = Walls::closed_box([20, 20, 20]);
+    let bodies = vec![body];
+    let markers = vec![m];
+    let mut ct = Contacts::new(p, walls, &bodies, &markers).unwrap();
+    ct.compute(&bodies, &markers);
+    let mass = bodies[0].mass();
+    let (damping, spring) = (ct.stats().damping_rate, ct.stats().spring_rate);
+    assert!((damping / (2.0 * c / mass) - 1.0).abs() < 1e-12, "{damping} vs {}", 2.0 * c / mass);
+    assert!((spring / (2.0 * k / mass).sqrt() - 1.0).abs() < 1e-12, "{spring}");
+}

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use crate::rigid::{Marker, RigidBody, Vec3};
 
-use super::force::Pose;
+use super::force::{Hit, Pose};
 use super::grid::{fill, for_cells, Geometry};
 use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
 use super::params::{ContactParamError, ContactParams, Walls};
@@ -45,6 +45,16 @@ pub struct ContactStats {
     /// `Σ ½ k (δ0 − δ)² w` over the interacting pairs and wall contacts with `δ < δ0`: the
     /// elastic energy stored (a diagnostic; see [`super`] on why it is not an exact potential).
     pub elastic_energy: f64,
+    /// The stiffest free body's damping rate `max_b 2 Σ c / m_b` (per unit time), `Σ c` over
+    /// the body's interacting pairs and wall contacts of the normal damping coefficient
+    /// `kⁿ (1/δ* − 1/δ_d) w`: a Gershgorin bound of the translational eigenvalues of
+    /// `M⁻¹ K` (the factor 2: partners that move; exact for two equal bodies). Explicit Euler
+    /// damping in sub-steps of `h` is stable for `h · damping_rate < 2` on these modes (module
+    /// [`super`], "Stability analysis"; rotation is not included).
+    pub damping_rate: f64,
+    /// The stiffest free body's spring rate `max_b √(2 Σ k w / m_b)`, the same bound for the
+    /// elastic part: position Verlet is stable for `h · spring_rate < 2`.
+    pub spring_rate: f64,
 }
 
 impl Default for ContactStats {
@@ -56,6 +66,8 @@ impl Default for ContactStats {
             wall_contacts: 0,
             min_delta: f64::INFINITY,
             elastic_energy: 0.0,
+            damping_rate: 0.0,
+            spring_rate: 0.0,
         }
     }
 }
@@ -78,6 +90,10 @@ pub(crate) struct Slot {
     pub count: u32,
     pub min_delta: f64,
     pub energy: f64,
+    /// `Σ` of the interacting pairs' normal damping coefficients and spring constants
+    /// ([`Hit::stiffness`]).
+    pub damping: f64,
+    pub spring: f64,
 }
 
 impl Slot {
@@ -89,42 +105,58 @@ impl Slot {
         count: 0,
         min_delta: f64::INFINITY,
         energy: 0.0,
+        damping: 0.0,
+        spring: 0.0,
     };
 
-    /// Adds the force `f` on marker `i` (lever arm `ri`) of body a and `−f` on marker `j`
-    /// (lever arm `rj`) of body b. The oracle adds in the same order with the same operations.
+    /// Adds the force `h.force` on marker `i` (lever arm `ri`) of body a and its opposite on
+    /// marker `j` (lever arm `rj`) of body b. The oracle adds in the same order with the same
+    /// operations.
     #[inline(always)]
-    pub fn add_pair(&mut self, f: &Vec3, ri: &Vec3, rj: &Vec3, delta: f64, energy: f64) {
+    pub fn add_pair(&mut self, h: &Hit, p: &ContactParams, ri: &Vec3, rj: &Vec3) {
+        let f = &h.force;
         self.fa += f;
         self.ta += ri.cross(f);
         self.fb -= f;
         self.tb += rj.cross(&(-f));
-        self.count += 1;
-        self.min_delta = self.min_delta.min(delta);
-        self.energy += energy;
+        self.tally(h, p);
     }
 
-    /// Adds the force `f` of a wall on a marker with lever arm `r` (body a only).
+    /// Adds the force `h.force` of a wall on a marker with lever arm `r` (body a only).
     #[inline(always)]
-    pub fn add_wall(&mut self, f: &Vec3, r: &Vec3, delta: f64, energy: f64) {
-        self.fa += f;
-        self.ta += r.cross(f);
+    pub fn add_wall(&mut self, h: &Hit, p: &ContactParams, r: &Vec3) {
+        self.fa += h.force;
+        self.ta += r.cross(&h.force);
+        self.tally(h, p);
+    }
+
+    /// The statistics of one interacting pair: count, closest `δ`, energy, stiffness.
+    #[inline(always)]
+    fn tally(&mut self, h: &Hit, p: &ContactParams) {
         self.count += 1;
-        self.min_delta = self.min_delta.min(delta);
-        self.energy += energy;
+        self.min_delta = self.min_delta.min(h.delta);
+        self.energy += h.elastic_energy(p);
+        let (c, k) = h.stiffness(p);
+        self.damping += c;
+        self.spring += k;
     }
 }
 
 /// Serial accumulation shared by the fast path and the oracle: pair slots in pair order
 /// (skipping slots without contacts), then wall slots in body order.
+///
+/// `stiffness[b]` receives body `b`'s `(Σ c, Σ k w)` over its interacting pairs and wall
+/// contacts ([`ContactStats::damping_rate`]).
 pub(crate) fn accumulate(
     pairs: &[(u32, u32)],
     slots: &[Slot],
     wall_slots: &[Slot],
     loads: &mut [ContactLoad],
+    stiffness: &mut [[f64; 2]],
     stats: &mut ContactStats,
 ) -> Vec3 {
     loads.fill(ContactLoad::ZERO);
+    stiffness.fill([0.0; 2]);
     let mut reaction = Vec3::zeros();
     for (&(a, b), s) in pairs.iter().zip(slots) {
         if s.count == 0 {
@@ -135,6 +167,10 @@ pub(crate) fn accumulate(
         loads[a].torque += s.ta;
         loads[b].force += s.fb;
         loads[b].torque += s.tb;
+        for body in [a, b] {
+            stiffness[body][0] += s.damping;
+            stiffness[body][1] += s.spring;
+        }
         stats.touching_pairs += 1;
         stats.marker_pairs += s.count as usize;
         stats.min_delta = stats.min_delta.min(s.min_delta);
@@ -146,12 +182,27 @@ pub(crate) fn accumulate(
         }
         loads[b].force += s.fa;
         loads[b].torque += s.ta;
+        stiffness[b][0] += s.damping;
+        stiffness[b][1] += s.spring;
         reaction -= s.fa;
         stats.wall_contacts += s.count as usize;
         stats.min_delta = stats.min_delta.min(s.min_delta);
         stats.elastic_energy += s.energy;
     }
     reaction
+}
+
+/// [`ContactStats::damping_rate`] and [`ContactStats::spring_rate`] from the per-body sums.
+pub(crate) fn stiffness_rates(bodies: &[RigidBody], stiffness: &[[f64; 2]], stats: &mut ContactStats) {
+    let (mut damping, mut spring) = (0.0f64, 0.0f64);
+    for (b, &[c, k]) in bodies.iter().zip(stiffness) {
+        if b.is_free() {
+            damping = damping.max(2.0 * c / b.mass());
+            spring = spring.max((2.0 * k / b.mass()).sqrt());
+        }
+    }
+    stats.damping_rate = damping;
+    stats.spring_rate = spring;
 }
 
 /// The contact model of Derksen (2020, Table 1) between the surface markers of rigid bodies
@@ -185,6 +236,8 @@ pub struct Contacts {
     slots: Vec<Slot>,
     wall_slots: Vec<Slot>,
     pub(crate) loads: Vec<ContactLoad>,
+    /// Per body `(Σ c, Σ k w)` of the last evaluation ([`ContactStats::damping_rate`]).
+    stiffness: Vec<[f64; 2]>,
     wall_reaction: Vec3,
     stats: ContactStats,
     scratch: Vec<Mutex<Scratch>>,
@@ -260,6 +313,7 @@ impl Contacts {
             slots: Vec::new(),
             wall_slots: Vec::with_capacity(n),
             loads: vec![ContactLoad::ZERO; n],
+            stiffness: vec![[0.0; 2]; n],
             wall_reaction: Vec3::zeros(),
             stats: ContactStats::default(),
             scratch: Vec::new(),
@@ -321,6 +375,7 @@ impl Contacts {
             + self.slots.capacity()
             + self.wall_slots.capacity()
             + self.loads.capacity()
+            + self.stiffness.capacity()
             + self.external.capacity()
             + self.average.capacity()
     }
@@ -449,8 +504,16 @@ impl Contacts {
                 }
             });
         }
-        self.wall_reaction =
-            accumulate(self.list.pairs(), &self.slots, &self.wall_slots, &mut self.loads, &mut self.stats);
+        self.stiffness.resize(n, [0.0; 2]);
+        self.wall_reaction = accumulate(
+            self.list.pairs(),
+            &self.slots,
+            &self.wall_slots,
+            &mut self.loads,
+            &mut self.stiffness,
+            &mut self.stats,
+        );
+        stiffness_rates(bodies, &self.stiffness, &mut self.stats);
     }
 
     /// Sets the skin of the marker-pair list (module `list`; default [`DEFAULT_SKIN`]) and

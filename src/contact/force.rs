@@ -123,6 +123,21 @@ impl Hit {
             0.0
         }
     }
+
+    /// The pair's normal damping coefficient `kⁿ (1/δ* − 1/δ_d) w` (0 beyond `δ_d` or with
+    /// the lubrication off) and spring constant `k w` (0 beyond `δ0` or with the elastic part
+    /// off): `−∂F·n̂/∂(Δu·n̂)` and `−∂F·n̂/∂δ` at fixed `n̂` and `w`, what the sub-step's
+    /// stability depends on ([`super::ContactStats::damping_rate`]).
+    #[inline(always)]
+    pub fn stiffness(&self, p: &ContactParams) -> (f64, f64) {
+        let damping = if p.lubrication && self.delta < p.delta_d {
+            p.k_n * (1.0 / self.delta.max(p.delta_sat) - 1.0 / p.delta_d) * self.w
+        } else {
+            0.0
+        };
+        let spring = if p.elastic && self.delta < p.delta0 { p.k * self.w } else { 0.0 };
+        (damping, spring)
+    }
 }
 
 /// The force on a marker (position `x`, normal `n`, velocity `u`) from the wall with plane

@@ -64,8 +64,8 @@ const CHUNK: usize = 16;
 /// Per-thread buffers of the rebuild's narrow phase.
 #[derive(Debug, Default)]
 pub(crate) struct Scratch {
-    a: Vec<Placed>,
-    b: Vec<Placed>,
+    a: Vec<WorldMarker>,
+    b: Vec<WorldMarker>,
     ca: Vec<WorldMarker>,
     cb: Vec<WorldMarker>,
     cell_of: Vec<u32>,
@@ -709,11 +709,9 @@ impl PairList {
         for &[i, j] in &self.cur.mpairs[self.cur.pair_start[k] as usize..self.cur.pair_start[k + 1] as usize]
         {
             let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
-            let (xi, xj) = (pa.position + mi.r, pb.position + mj.r);
-            if (xj - xi).norm_squared() < reach2 {
-                let (mi, mj) = (mi.world(pa, xi), mj.world(pb, xj));
-                if let Some(h) = pair_force(p, &mi, &mj) {
-                    slot.add_pair(&h.force, &mi.r, &mj.r, h.delta, h.elastic_energy(p));
+            if (mj.x - mi.x).norm_squared() < reach2 {
+                if let Some(h) = pair_force(p, mi, mj) {
+                    slot.add_pair(&h, p, &mi.r, &mj.r);
                 }
             }
         }
@@ -742,47 +740,34 @@ impl PairList {
         for &[i, w] in &self.cur.wpairs[range] {
             let (axis, plane, nhat) = &walls[w as usize];
             let m = &s.a[i as usize];
-            let x = pose.position + m.r;
-            if wall_distance(*axis, *plane, nhat, &x) >= cutoff {
+            if wall_distance(*axis, *plane, nhat, &m.x) >= cutoff {
                 continue;
             }
-            let m = m.world(pose, x);
             if let Some(h) = wall_force(p, *axis, *plane, nhat, &m.x, &m.n, &m.u) {
-                slot.add_wall(&h.force, &m.r, h.delta, h.elastic_energy(p));
+                slot.add_wall(&h, p, &m.r);
             }
         }
         slot
     }
 }
 
-/// A marker's lever arm `R m` and world normal `R n`.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Placed {
-    r: Vec3,
-    n: Vec3,
-}
-
-impl Placed {
-    /// The marker in the world frame at position `x = c + r`, velocity `v + ω × r`.
-    #[inline(always)]
-    fn world(&self, pose: &Pose, x: Vec3) -> WorldMarker {
-        WorldMarker {
-            index: 0,
-            r: self.r,
-            x,
-            n: self.n,
-            u: pose.velocity + pose.angular_velocity.cross(&self.r),
-        }
-    }
-}
-
-/// The markers `side` of a body at `pose` into `out`.
+/// The markers `side` of a body at `pose`, in the world frame, into `out`: lever arm
+/// `r = R m`, position `x = c + r`, normal `R n`, velocity `v + ω × r` (the operations of
+/// [`Pose::marker_position`] and [`Pose::marker_normal_velocity`]), each formed once per side
+/// marker rather than once per marker pair it belongs to.
 #[inline(always)]
-fn place(pose: &Pose, markers: &[Marker], side: &[u32], out: &mut Vec<Placed>) {
+fn place(pose: &Pose, markers: &[Marker], side: &[u32], out: &mut Vec<WorldMarker>) {
     out.clear();
     out.extend(side.iter().map(|&i| {
         let m = &markers[i as usize];
-        Placed { r: pose.rotation * m.position, n: pose.rotation * m.normal }
+        let r = pose.rotation * m.position;
+        WorldMarker {
+            index: 0,
+            r,
+            x: pose.position + r,
+            n: pose.rotation * m.normal,
+            u: pose.velocity + pose.angular_velocity.cross(&r),
+        }
     }));
 }
 

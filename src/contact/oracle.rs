@@ -74,7 +74,7 @@ pub fn brute_force<M: AsRef<[Marker]>>(
                     for mj in &world[b] {
                         if (mj.x - mi.x).norm_squared() < reach2 {
                             if let Some(h) = pair_force(params, mi, mj) {
-                                slot.add_pair(&h.force, &mi.r, &mj.r, h.delta, h.elastic_energy(params));
+                                slot.add_pair(&h, params, &mi.r, &mj.r);
                             }
                         }
                     }
@@ -94,7 +94,7 @@ pub fn brute_force<M: AsRef<[Marker]>>(
             for m in &world[b] {
                 for &(axis, _, plane, nhat) in &wall_list {
                     if let Some(h) = wall_force(params, axis, plane, &nhat, &m.x, &m.n, &m.u) {
-                        wall_slots[b].add_wall(&h.force, &m.r, h.delta, h.elastic_energy(params));
+                        wall_slots[b].add_wall(&h, params, &m.r);
                     }
                 }
             }
@@ -102,6 +102,8 @@ pub fn brute_force<M: AsRef<[Marker]>>(
     }
     let mut loads = vec![ContactLoad::ZERO; n];
     let mut stats = ContactStats { candidate_pairs: pairs.len(), ..Default::default() };
-    let wall_reaction = accumulate(&pairs, &slots, &wall_slots, &mut loads, &mut stats);
+    let mut stiffness = vec![[0.0; 2]; n];
+    let wall_reaction = accumulate(&pairs, &slots, &wall_slots, &mut loads, &mut stiffness, &mut stats);
+    super::engine::stiffness_rates(bodies, &stiffness, &mut stats);
     OracleResult { loads, wall_reaction, stats }
 }

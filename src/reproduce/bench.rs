@@ -74,6 +74,11 @@ pub struct CoupledBench {
     pub listed_pairs: usize,
     /// Interacting marker pairs (body–body) in the last contact sub-step.
     pub interacting_pairs: usize,
+    /// The largest `ContactStats::damping_rate` seen at the end of a timed step (per unit
+    /// time): explicit damping needs sub-steps `h < 2/damping_rate`.
+    pub max_damping_rate: f64,
+    /// The largest `ContactStats::spring_rate` seen at the end of a timed step.
+    pub max_spring_rate: f64,
 }
 
 /// Measures case `name` at scale `scale` (module docs).
@@ -126,8 +131,13 @@ pub fn bench_case(
     c.reset_timings();
     let rebuilds0 = c.contact_list_rebuilds();
     let full0 = c.contacts().map_or(0, |k| k.full_rebuilds());
+    let (mut max_damping_rate, mut max_spring_rate) = (0.0f64, 0.0f64);
     for _ in 0..steps {
         c.step().map_err(|e| anyhow::anyhow!("timed step: {e}"))?;
+        if let Some(k) = c.contacts() {
+            max_damping_rate = max_damping_rate.max(k.stats().damping_rate);
+            max_spring_rate = max_spring_rate.max(k.stats().spring_rate);
+        }
     }
     let timings = *c.timings();
     let per = |x: f64| x * 1e3 / steps as f64;
@@ -162,5 +172,7 @@ pub fn bench_case(
         full_rebuilds: c.contacts().map_or(0, |k| k.full_rebuilds()) - full0,
         listed_pairs: c.contacts().map_or(0, |k| k.list_stats().1),
         interacting_pairs: c.contacts().map_or(0, |k| k.stats().marker_pairs),
+        max_damping_rate,
+        max_spring_rate,
     })
 }
