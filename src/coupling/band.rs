@@ -13,6 +13,7 @@
 
 use crate::lattice::{Grid, Run};
 use crate::rigid::{RigidBody, Shape, Vec3};
+use crate::util::{ceil_i64, floor_i64};
 
 /// Slack added to chords: a node exactly on a chord end is taken (outer) or not skipped
 /// (inner). Chords are computed in `f64` from coordinates of order 10²: 1e-9 is far above
@@ -52,8 +53,8 @@ pub(super) fn row_spans(
     let c = body.position;
     let e = shape.half_extents(&r, outer);
     let range = |a: usize| -> (i64, i64) {
-        let lo = (c[a] - e[a]).floor() as i64;
-        let hi = (c[a] + e[a]).ceil() as i64;
+        let lo = floor_i64(c[a] - e[a]);
+        let hi = ceil_i64(c[a] + e[a]);
         if periodic[a] {
             // Unwrapped; if the range is longer than the period, some rows are visited twice
             // with different images (harmless for the band, which may repeat nodes).
@@ -71,13 +72,13 @@ pub(super) fn row_spans(
             // Row origin: world (0, y, z) relative to the centre, in the body frame.
             let o = r.tr_mul(&Vec3::new(-c.x, y as f64 - c.y, z as f64 - c.z));
             let Some((t0, t1)) = shape.chord(&o, &dir, outer) else { continue };
-            let xa = (t0 - SLACK).floor() as i64 + 1;
-            let xb = (t1 + SLACK).ceil() as i64 - 1;
+            let xa = floor_i64(t0 - SLACK) + 1;
+            let xb = ceil_i64(t1 + SLACK) - 1;
             if xa > xb {
                 continue;
             }
             let (xs, xe) = match inner.and_then(|off| shape.chord(&o, &dir, off)) {
-                Some((s0, s1)) => ((s0 + SLACK).floor() as i64 + 1, (s1 - SLACK).ceil() as i64 - 1),
+                Some((s0, s1)) => (floor_i64(s0 + SLACK) + 1, ceil_i64(s1 - SLACK) - 1),
                 None => (1, 0),
             };
             f(RowSpan { y, z, xa, xb, xs, xe, origin: o, dir });

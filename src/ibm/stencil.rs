@@ -345,7 +345,7 @@ fn axis_stencil(
     weights: &mut [f64; MAX_WIDTH],
 ) -> usize {
     let w = kernel.width();
-    let lo = (x - kernel.support()).floor() as i64 + 1;
+    let lo = crate::util::floor_i64(x - kernel.support()) + 1;
     if periodic {
         // One integer division per axis, then wrap by subtraction (`n` may be < `w`).
         let mut node = lo.rem_euclid(n as i64) as usize;
