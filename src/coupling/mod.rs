@@ -156,7 +156,7 @@ mod loads;
 mod markers;
 
 use band::Band;
-use interior::Moment;
+use interior::{InteriorNodes, Moment};
 use loads::shell_inertia;
 
 /// Options of the coupling.
@@ -409,6 +409,9 @@ pub struct Coupled<T: Real + Planes> {
     velocity: Vec<[f64; 3]>,
     /// Per body, the interior-fluid momentum sums.
     interior: Vec<InteriorMomentum>,
+    /// Per body, the nodes and weights of its interior sums, recorded in phase 3 and reused
+    /// in phase 7.
+    interior_nodes: Vec<InteriorNodes>,
     /// Per body, the loads of the last step.
     loads: Vec<BodyLoads>,
     /// Per body, the forcing shell's mass and body-frame moments `(K_t, K_r)` (module docs).
@@ -516,6 +519,7 @@ impl<T: Real + Planes> Coupled<T> {
             marker_force: vec![[0.0; 3]; total],
             velocity: vec![[0.0; 3]; nodes],
             interior: vec![InteriorMomentum::default(); n_bodies],
+            interior_nodes: vec![InteriorNodes::default(); n_bodies],
             loads: vec![BodyLoads::default(); n_bodies],
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
@@ -746,7 +750,8 @@ impl<T: Real + Planes> Coupled<T> {
     /// 2. **Stencils** ([`Stencils::build`], with the box's periodicity) and the **band** of
     ///    each body (module docs), grouped by z-plane.
     /// 3. **Interior sums before**: `P`, `L`, `V` of each free or fixed body from the fluid at
-    ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term.
+    ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term. Each body's
+    ///    nodes and weights `α` are recorded for step 7.
     /// 4. **Clear** the force field where the previous step spread (its band), and the marker
     ///    force totals.
     /// 5. **`K` direct-forcing iterations**, each: the fluid velocity `u = (j + F/2)/ρ` at the
@@ -755,7 +760,8 @@ impl<T: Real + Planes> Coupled<T> {
     ///    `ρ_m = 1`, times the marker volume `A_m Δ`, accumulated per marker; spread
     ///    (adding) into the fluid's force field.
     /// 6. **[`Fluid::step`]**: collision with the uniform body force plus the IBM force field.
-    /// 7. **Interior sums after** (fluid at `tⁿ⁺¹`, bodies still at `tⁿ`), then the loads:
+    /// 7. **Interior sums after** (fluid at `tⁿ⁺¹`, bodies still at `tⁿ`: over the nodes and
+    ///    weights recorded in step 3, in the same order, the same bits), then the loads:
     ///    per body `−Σ_m F_m`, `−Σ_m r_m × F_m`, plus the interior rate with its flux
     ///    correction ([`BodyLoads`]).
     /// 8. **Bodies advance** ([`RigidBody::step`]): free bodies with their hydrodynamic loads
