@@ -88,6 +88,7 @@ fn band_covers(retraction: f64) {
     for step in 0..12 {
         c.step().unwrap();
         // After the step, `band_prev` is this step's band and the stencils are this step's.
+        assert!(!c.band_prev.whole_grid, "step {step}: the band should have been built");
         let mut in_band = vec![false; grid.nodes()];
         for z in 0..grid.nz {
             for r in c.band_prev.plane(z) {
@@ -227,10 +228,13 @@ fn sphere_settles_on_the_floor_with_contacts() {
 }
 
 /// The band velocity and the clearing of the force field give the same bits over the bands
-/// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies).
+/// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies,
+/// which builds no band), and when the two alternate from step to step (every transition:
+/// a step after one without a built band clears the whole field).
 #[test]
 fn dense_and_sparse_band_paths_agree_bitwise() {
-    let run = |dense: bool| {
+    // `dense(step)`: the override of each step.
+    let run = |dense: &dyn Fn(usize) -> Option<bool>| {
         let mut fluid =
             Fluid::<f32>::new(Grid::new(20, 20, 24), FluidParams::bgk(0.05), Boundaries::closed_box())
                 .unwrap();
@@ -246,8 +250,11 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
             .collect();
         let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
         let mut c = Coupled::new(fluid, bodies, params).unwrap();
-        c.dense_override = Some(dense);
-        c.run(30).unwrap();
+        for step in 0..30 {
+            c.dense_override = dense(step);
+            c.step().unwrap();
+            assert_eq!(c.band_prev.whole_grid, dense(step) == Some(true), "step {step}");
+        }
         let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
         let bodies: Vec<u64> = c
             .bodies()
@@ -256,10 +263,62 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
             .collect();
         (pops, bodies, c.band_nodes())
     };
-    let (sparse, dense) = (run(false), run(true));
-    assert!(sparse.2 < 20 * 20 * 24, "the bands should not cover the grid here");
+    let sparse = run(&|_| Some(false));
+    let dense = run(&|_| Some(true));
+    // Dense, dense, sparse, sparse, dense, sparse, …: every transition, repeatedly.
+    let alternating = run(&|step| Some([true, true, false, false, true, false][step % 6]));
+    let chosen = run(&|_| None);
+    assert!(sparse.2 < 20 * 20 * 24 / 2, "the bands should not cover half the grid here");
     assert!(sparse.0 == dense.0, "populations differ");
     assert_eq!(sparse.1, dense.1, "bodies differ");
+    assert!(sparse.0 == alternating.0, "populations differ (alternating)");
+    assert_eq!(sparse.1, alternating.1, "bodies differ (alternating)");
+    assert!(sparse == chosen, "chosen by size: the band, as forced");
+}
+
+/// Small bodies whose bands hold more than half the grid: no band is built (the per-body
+/// estimate from `Coupled::new` decides before any step), the whole grid is used instead,
+/// and the results are those of the band, bit for bit.
+#[test]
+fn dense_bed_builds_no_band_and_agrees_bitwise() {
+    let run = |dense: Option<bool>| {
+        let n = 12;
+        let mut fluid =
+            Fluid::<f32>::new(Grid::new(n, n, n), FluidParams::bgk(0.05), Boundaries::periodic()).unwrap();
+        fluid.initialize(|x, y, z| (1.0, [1e-3 * ((x + 2 * y) as f64 * 0.4).sin(), 2e-4 * z as f64, 0.0]));
+        let bodies: Vec<RigidBody> = (0..8)
+            .map(|k| {
+                let at = |b: usize| 3.0 + 6.0 * ((k >> b) & 1) as f64 + 0.1 * k as f64;
+                RigidBody::new(Arc::new(Sphere::new(3.0)), 1.25, Motion::Free).with_position(Vec3::new(
+                    at(0),
+                    at(1),
+                    at(2),
+                ))
+            })
+            .collect();
+        let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
+        let mut c = Coupled::new(fluid, bodies, params).unwrap();
+        c.dense_override = dense;
+        let mut whole = true;
+        for _ in 0..20 {
+            c.step().unwrap();
+            whole &= c.band_prev.whole_grid;
+        }
+        let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
+        let bodies: Vec<u64> = c
+            .bodies()
+            .iter()
+            .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
+            .collect();
+        (pops, bodies, whole, c.band_nodes())
+    };
+    let (chosen, band) = (run(None), run(Some(false)));
+    assert!(chosen.2, "the band should not have been built");
+    assert!(!band.2);
+    assert!(band.3 > 12 * 12 * 12 / 2, "the bands hold {} nodes", band.3);
+    assert!(chosen.3 > 12 * 12 * 12 / 2, "the estimate is {} nodes", chosen.3);
+    assert!(chosen.0 == band.0, "populations differ");
+    assert_eq!(chosen.1, band.1, "bodies differ");
 }
 
 /// Equal marker sets are shared (one allocation), different ones are not, and the order of
