@@ -138,9 +138,15 @@ pub(super) fn band_runs(
     });
 }
 
+/// Number of nodes in `runs`.
+pub(super) fn run_nodes(runs: &[Run]) -> usize {
+    runs.iter().map(|r| r.len as usize).sum()
+}
+
 /// Runs of all bodies, bucketed by z-plane (a stable counting sort: body order, then row
-/// order, within a plane), so that per-plane work is parallel and deterministic. Buffers are
-/// reused across steps.
+/// order, within a plane), so that per-plane work is parallel and deterministic; or, when
+/// the runs were not built, the whole grid. Buffers are reused across steps. The default is
+/// an empty band (built, no runs).
 #[derive(Clone, Debug, Default)]
 pub(super) struct Band {
     /// Per body, its runs (scratch, filled in parallel).
@@ -149,11 +155,23 @@ pub(super) struct Band {
     pub runs: Vec<Run>,
     /// Plane offsets (`nz + 1` entries once built; empty before).
     pub start: Vec<usize>,
+    /// The runs were not built: the band stands for every node of the grid (the bands were
+    /// judged to hold more than half the grid, so the step evaluated the velocity at every
+    /// node; or it is unknown, after a restore). No runs then.
+    pub whole_grid: bool,
 }
 
 impl Band {
-    /// Regroups `per_body` by plane into `runs`/`start`.
+    /// Makes this the whole grid without building runs ([`Band::whole_grid`]).
+    pub fn set_whole_grid(&mut self) {
+        self.runs.clear();
+        self.start.clear();
+        self.whole_grid = true;
+    }
+
+    /// Regroups `per_body` by plane into `runs`/`start`: the band is built.
     pub fn bucket(&mut self, nz: usize) {
+        self.whole_grid = false;
         self.start.clear();
         self.start.resize(nz + 1, 0);
         for r in self.per_body.iter().flatten() {
@@ -176,7 +194,7 @@ impl Band {
         self.start[0] = 0;
     }
 
-    /// The runs of plane `z` (none before the first build).
+    /// The runs of plane `z` (none before the first build, and none for the whole grid).
     pub fn plane(&self, z: usize) -> &[Run] {
         if z + 1 >= self.start.len() {
             return &[];
@@ -184,8 +202,9 @@ impl Band {
         &self.runs[self.start[z]..self.start[z + 1]]
     }
 
-    /// Number of nodes in all runs (with repetitions where bodies' bands overlap).
+    /// Number of nodes in all runs (with repetitions where bodies' bands overlap; none for
+    /// the whole grid).
     pub fn nodes(&self) -> usize {
-        self.runs.iter().map(|r| r.len as usize).sum()
+        run_nodes(&self.runs)
     }
 }

@@ -35,13 +35,14 @@ unsafe impl<V> Send for PlaneShared<V> {}
 
 impl<T: Real + Planes> Coupled<T> {
     /// Phase 4: zero the force field on the previous step's band (the only nodes where it is
-    /// non-zero) and the markers' force totals.
+    /// non-zero) and the markers' force totals; the whole field when the previous band is the
+    /// whole grid (not built, or unknown after a restore).
     pub(super) fn clear_forcing(&mut self) {
         let grid = self.fluid.grid();
-        if self.dense_band(self.band_prev.nodes(), grid.nodes()) {
-            // The bands cover most of the grid (small bodies in a dense bed, whose bands
-            // overlap): one streaming pass over the field. The same result, since the field is
-            // zero outside the previous band.
+        if self.band_prev.whole_grid {
+            // The previous step spread into bands it did not build (small bodies in a dense
+            // bed, whose bands overlap and cover most of the grid): one streaming pass over
+            // the field. The same result, since the field is zero outside those bands.
             self.fluid.clear_force_field();
             self.marker_force.par_iter_mut().for_each(|v| *v = [0.0; 3]);
             return;
@@ -86,9 +87,10 @@ impl<T: Real + Planes> Coupled<T> {
     }
 
     /// The fluid velocity at every band node into `self.velocity` (parallel over planes). When
-    /// the bands together hold more nodes than half the grid (small bodies in a dense bed have
-    /// bands several times their volume, and overlapping ones), the velocity is evaluated once
-    /// at every node instead, by the same arithmetic: bitwise the same values at the band nodes.
+    /// the band is the whole grid (not built: the bands together were estimated to hold more
+    /// nodes than half the grid, as small bodies in a dense bed, with bands several times
+    /// their volume and overlapping, do), the velocity is evaluated once at every node
+    /// instead, by the same arithmetic: bitwise the same values at the band nodes.
     pub(super) fn band_velocity(&mut self) {
         let grid = self.fluid.grid();
         let fluid = &self.fluid;
@@ -96,7 +98,7 @@ impl<T: Real + Planes> Coupled<T> {
         let layout = grid.layout();
         let out = PlaneShared(self.velocity.as_mut_ptr());
         let out = &out;
-        let all = self.dense_band(band.nodes(), grid.nodes());
+        let all = band.whole_grid;
         let velocity = |run: Run| {
             let row = layout.index(0, run.y as usize, run.z as usize);
             fluid.for_each_in_run(run, |x, rho, j, f| {
@@ -120,8 +122,9 @@ impl<T: Real + Planes> Coupled<T> {
 
 impl<T: Real + Planes> Coupled<T> {
     /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
-    /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test).
-    fn dense_band(&self, band_nodes: usize, grid_nodes: usize) -> bool {
+    /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test). Only
+    /// the cost depends on the answer: the band and the whole-grid paths give the same bits.
+    pub(super) fn dense_band(&self, band_nodes: usize, grid_nodes: usize) -> bool {
         self.dense_override.unwrap_or(band_nodes > grid_nodes / 2)
     }
 }

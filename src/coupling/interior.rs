@@ -1,5 +1,12 @@
 //! Phases 3 and 7 of the coupled step: the interior-fluid sums of each free or fixed body
 //! (module [`super`], "Free bodies: the interior fluid").
+//!
+//! Both sums of a step are taken with the body at `xⁿ` (it moves only in phase 8), over the
+//! same nodes with the same weights `α`. Phase 3 walks the body's rows ([`row_spans`],
+//! [`emit_runs`]), evaluates `α` (the signed distance at the partial nodes) and records the
+//! nodes and weights in the body's [`InteriorNodes`]; phase 7 only gathers over that record.
+//! One function adds a run's nodes for both ([`Sums::add_run`]): the same nodes, weights and
+//! order, so the same bits as walking the body twice.
 
 use rayon::prelude::*;
 
@@ -14,26 +21,33 @@ use crate::rigid::{Motion, RigidBody, Vec3};
 /// (fluid at `tⁿ⁺¹`); the bodies are at `xⁿ` for both.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Moment {
-    /// Phase 3.
+    /// Phase 3: walks the body and records its [`InteriorNodes`].
     Before,
-    /// Phase 7.
+    /// Phase 7: gathers over the nodes recorded in phase 3.
     After,
 }
 
 impl<T: Real + Planes> Coupled<T> {
     /// The interior sums `(P, L, V)` of every body that has an interior term, into
-    /// `self.interior[b].before` or `.after` (parallel over bodies, each body serial).
+    /// `self.interior[b].before` (recording the body's nodes in `self.interior_nodes[b]`) or
+    /// `.after` (from that record); parallel over bodies, each body serial.
     pub(super) fn interior_sums(&mut self, moment: Moment) {
         let (fluid, periodic) = (&self.fluid, self.periodic);
-        self.interior.par_iter_mut().zip(self.bodies.par_iter()).for_each(|(im, body)| {
-            if has_interior_term(body) {
-                let sums = interior_sums(fluid, body, periodic);
-                match moment {
-                    Moment::Before => im.before = sums,
-                    Moment::After => im.after = sums,
+        self.interior
+            .par_iter_mut()
+            .zip(self.interior_nodes.par_iter_mut())
+            .zip(self.bodies.par_iter())
+            .for_each(|((im, nodes), body)| {
+                if has_interior_term(body) {
+                    match moment {
+                        Moment::Before => im.before = nodes.record(fluid, body, periodic),
+                        Moment::After => {
+                            debug_assert_eq!(nodes.centre, body.position, "the body moved since phase 3");
+                            im.after = nodes.sums(fluid);
+                        }
+                    }
                 }
-            }
-        });
+            });
     }
 }
 
@@ -44,39 +58,111 @@ pub(super) fn has_interior_term(body: &RigidBody) -> bool {
     !matches!(body.motion(), Motion::Prescribed(_))
 }
 
-/// `(P, L, V)` of `body`'s interior fluid (module docs): `Σ α j`, `Σ α r × j`, `Σ α` over the
-/// nodes with `sd < ½`; nodes deeper than `sd < −½` have `α = 1` without evaluating `sd`.
-/// Serial per body (a fixed order: deterministic).
-fn interior_sums<T: Real + Planes>(
-    fluid: &Fluid<T>,
-    body: &RigidBody,
-    periodic: [bool; 3],
-) -> (Vec3, Vec3, f64) {
-    let grid = fluid.grid();
-    let shape = body.shape().as_ref();
-    let c = body.position;
-    let mut p = Vec3::zeros();
-    let mut l = Vec3::zeros();
-    let mut v = 0.0;
-    row_spans(body, grid, periodic, 0.5, Some(-0.5), |s| {
-        emit_runs(grid, periodic, (s.xa, s.xb, s.y, s.z), |run: Run, shift| {
-            let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
-            fluid.for_each_in_run(run, |x, _rho, j, _f| {
-                let xu = x as i64 + shift[0];
-                let r = Vec3::new(xu as f64 - c.x, yu - c.y, zu - c.z);
-                let alpha = if s.xs <= xu && xu <= s.xe {
-                    1.0
-                } else {
-                    (0.5 - shape.signed_distance(&(s.origin + s.dir * xu as f64))).clamp(0.0, 1.0)
-                };
-                if alpha > 0.0 {
-                    v += alpha;
-                    let m = Vec3::from(j) * alpha;
-                    p += m;
-                    l += r.cross(&m);
+/// One run of a body's interior nodes: the nodes (in the grid) and the shift to their
+/// unwrapped coordinates (`unwrapped = wrapped + shift`, [`emit_runs`]).
+#[derive(Clone, Copy, Debug)]
+struct InteriorRun {
+    run: Run,
+    shift: [i64; 3],
+}
+
+/// The interior nodes of one body at `xⁿ` and their weights `α = clamp(½ − sd, 0, 1)`, in the
+/// order phase 3 visits them, so that phase 7 sums over them without walking the body's rows
+/// or evaluating the signed distance again (module docs). The buffers are reused from step
+/// to step (they only grow).
+#[derive(Clone, Debug, Default)]
+pub(super) struct InteriorNodes {
+    /// The runs, in visiting order.
+    runs: Vec<InteriorRun>,
+    /// `α` of every node of every run, run after run (zeros included: the sums skip them).
+    alpha: Vec<f64>,
+    /// The body's centre when recorded, about which the moment arms are taken.
+    centre: Vec3,
+}
+
+impl InteriorNodes {
+    /// Records `body`'s interior nodes and weights (the nodes with `sd < ½`; nodes deeper
+    /// than `sd < −½` have `α = 1` without evaluating `sd`) and returns their sums
+    /// `(P, L, V)` from `fluid`, each run summed as soon as it is recorded.
+    fn record<T: Real + Planes>(
+        &mut self,
+        fluid: &Fluid<T>,
+        body: &RigidBody,
+        periodic: [bool; 3],
+    ) -> (Vec3, Vec3, f64) {
+        let grid = fluid.grid();
+        let shape = body.shape().as_ref();
+        self.runs.clear();
+        self.alpha.clear();
+        self.centre = body.position;
+        let (runs, alpha, centre) = (&mut self.runs, &mut self.alpha, self.centre);
+        let mut sums = Sums::default();
+        row_spans(body, grid, periodic, 0.5, Some(-0.5), |s| {
+            emit_runs(grid, periodic, (s.xa, s.xb, s.y, s.z), |run: Run, shift| {
+                let first = alpha.len();
+                for x in run.x0..run.x0 + run.len {
+                    let xu = x as i64 + shift[0];
+                    alpha.push(if s.xs <= xu && xu <= s.xe {
+                        1.0
+                    } else {
+                        (0.5 - shape.signed_distance(&(s.origin + s.dir * xu as f64))).clamp(0.0, 1.0)
+                    });
                 }
+                let r = InteriorRun { run, shift };
+                runs.push(r);
+                sums.add_run(fluid, r, &alpha[first..], centre);
             });
         });
-    });
-    (p, l, v)
+        sums.into()
+    }
+
+    /// The sums `(P, L, V)` from `fluid` over the recorded nodes and weights: the same
+    /// arithmetic in the same order as [`InteriorNodes::record`], so the same bits as walking
+    /// the body again.
+    fn sums<T: Real + Planes>(&self, fluid: &Fluid<T>) -> (Vec3, Vec3, f64) {
+        let mut sums = Sums::default();
+        let mut first = 0;
+        for &r in &self.runs {
+            let end = first + r.run.len as usize;
+            sums.add_run(fluid, r, &self.alpha[first..end], self.centre);
+            first = end;
+        }
+        sums.into()
+    }
+}
+
+/// Running interior sums `P = Σ α j`, `L = Σ α r × j`, `V = Σ α` of one body.
+#[derive(Clone, Copy, Debug, Default)]
+struct Sums {
+    p: Vec3,
+    l: Vec3,
+    v: f64,
+}
+
+impl Sums {
+    /// Adds the nodes of `nodes` with weights `alpha` (one per node, in x order), moment arms
+    /// about `c` from the unwrapped coordinates; nodes with `α = 0` are skipped. The only
+    /// place this arithmetic is written (phases 3 and 7 both call it).
+    #[inline]
+    fn add_run<T: Real + Planes>(&mut self, fluid: &Fluid<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
+        let InteriorRun { run, shift } = nodes;
+        let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
+        fluid.for_each_in_run(run, |x, _rho, j, _f| {
+            let xu = x as i64 + shift[0];
+            let alpha = alpha[x - run.x0 as usize];
+            if alpha > 0.0 {
+                let r = Vec3::new(xu as f64 - c.x, yu - c.y, zu - c.z);
+                self.v += alpha;
+                let m = Vec3::from(j) * alpha;
+                self.p += m;
+                self.l += r.cross(&m);
+            }
+        });
+    }
+}
+
+impl From<Sums> for (Vec3, Vec3, f64) {
+    fn from(s: Sums) -> Self {
+        (s.p, s.l, s.v)
+    }
 }

@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::band::band_runs;
+use super::band::{band_runs, run_nodes};
 use super::{Coupled, CouplingError};
 use crate::lbm::kernel::Planes;
 use crate::lbm::Real;
@@ -27,19 +27,32 @@ impl<T: Real + Planes> Coupled<T> {
     }
 
     /// Phase 2: the stencils ([`crate::ibm::Stencils::build`], with the box's periodicity) and
-    /// the band of each body, grouped by z-plane.
+    /// the band of each body, grouped by z-plane; or, when the bands are estimated to hold
+    /// more than half the grid ([`Coupled::dense_band`] on the sum of the per-body counts in
+    /// `band_estimate`), no runs: the band is the whole grid ([`whole_grid`](super::band::Band::whole_grid)), which
+    /// phases 4–5 then treat node by node. The estimate decides only the cost, never the
+    /// bits: both paths give the same results (module docs). Each body's count is the number
+    /// of band nodes it had when its band was last built (first in [`Coupled::new`]).
     ///
     /// # Errors
     /// A marker outside the box on a walled axis, or not finite (nothing else has changed).
     pub(super) fn build_geometry(&mut self) -> Result<(), CouplingError> {
         let grid = self.fluid.grid();
         self.stencils.build(grid, self.periodic, &self.position)?;
+        if self.dense_band(self.band_estimate.iter().sum(), grid.nodes()) {
+            self.band.set_whole_grid();
+            return Ok(());
+        }
         let (periodic, half_width) = (self.periodic, self.band_half_width);
         self.band
             .per_body
             .par_iter_mut()
+            .zip(self.band_estimate.par_iter_mut())
             .zip(self.bodies.par_iter())
-            .for_each(|(out, body)| band_runs(body, grid, periodic, half_width, out));
+            .for_each(|((out, count), body)| {
+                band_runs(body, grid, periodic, half_width, out);
+                *count = run_nodes(out);
+            });
         self.band.bucket(grid.nz);
         Ok(())
     }

@@ -136,13 +136,25 @@
 //! previous step wrote it. The velocity buffer is grid-sized but written and read only at band
 //! nodes. Band runs are grouped by z-plane and processed in parallel over planes, each
 //! plane's runs in body order: deterministic for any thread count.
+//!
+//! **Dense beds.** Small bodies in a dense bed have bands several times their volume, and
+//! overlapping: when the bands together hold more than half the grid, one pass over every
+//! node is cheaper than the bands' runs, and no band is built at all. Whether to build it is
+//! decided before building, from an estimate: per body, the number of nodes its band had
+//! when last built (first in [`Coupled::new`], at the bodies' initial poses), summed. The
+//! velocity is then evaluated at every node by the same arithmetic, so the marker
+//! velocities, forces and everything after are the same bits either way: the estimate
+//! decides only the cost (tested, with the two paths alternating from step to step). A step
+//! whose band was not built leaves the next step to clear the whole force field.
 
 use std::fmt;
 use std::sync::Arc;
 
+use rayon::prelude::*;
+
 use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
 use crate::ibm::{DeltaKernel, StencilError, Stencils};
-use crate::lattice::{Face, Run};
+use crate::lattice::Face;
 use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, FluidError, FluidState, Real};
 use crate::rigid::{
@@ -155,8 +167,8 @@ mod interior;
 mod loads;
 mod markers;
 
-use band::Band;
-use interior::Moment;
+use band::{band_runs, run_nodes, Band};
+use interior::{InteriorNodes, Moment};
 use loads::shell_inertia;
 
 /// Options of the coupling.
@@ -392,6 +404,9 @@ pub struct Coupled<T: Real + Planes> {
     /// cleared at the start of the next).
     band: Band,
     band_prev: Band,
+    /// Per body, the number of nodes in its band when that was last built (first in
+    /// [`Coupled::new`]): their sum decides whether the band is built ([`Coupled::dense_band`]).
+    band_estimate: Vec<usize>,
     // ---- reusable buffers, one entry per marker (global order) or per node ----
     /// Marker area weights `A_m`.
     area: Vec<f64>,
@@ -409,6 +424,9 @@ pub struct Coupled<T: Real + Planes> {
     velocity: Vec<[f64; 3]>,
     /// Per body, the interior-fluid momentum sums.
     interior: Vec<InteriorMomentum>,
+    /// Per body, the nodes and weights of its interior sums, recorded in phase 3 and reused
+    /// in phase 7.
+    interior_nodes: Vec<InteriorNodes>,
     /// Per body, the loads of the last step.
     loads: Vec<BodyLoads>,
     /// Per body, the forcing shell's mass and body-frame moments `(K_t, K_r)` (module docs).
@@ -417,8 +435,8 @@ pub struct Coupled<T: Real + Planes> {
     change: Vec<(Vec3, Vec3)>,
     /// Per body, its velocity and angular velocity at the start of the step's update.
     start: Vec<(Vec3, Vec3)>,
-    /// Forces the band velocity and clearing onto the band (`Some(false)`) or the whole grid
-    /// (`Some(true)`) instead of choosing by size (tests: both give the same bits).
+    /// Forces the band to be built (`Some(false)`) or the whole grid (`Some(true)`, no band
+    /// built) instead of choosing by the estimated size (tests: both give the same bits).
     dense_override: Option<bool>,
     timings: StepTimings,
     contacts: Option<Contacts>,
@@ -479,6 +497,16 @@ impl<T: Real + Planes> Coupled<T> {
         let nodes = fluid.grid().nodes();
         let n_bodies = bodies.len();
         let band = Band { per_body: vec![Vec::new(); n_bodies], ..Band::default() };
+        // Retracted markers sit `retraction` inside the surface: their stencils reach that
+        // much deeper.
+        let band_half_width = params.kernel.support() * 3f64.sqrt() + params.retraction + 1e-6;
+        let band_estimate = bodies
+            .par_iter()
+            .map_init(Vec::new, |runs, body| {
+                band_runs(body, fluid.grid(), periodic, band_half_width, runs);
+                run_nodes(runs)
+            })
+            .collect();
         let contacts = match params.contacts {
             Some(cp) => {
                 if params.contact_substeps == 0 {
@@ -503,11 +531,10 @@ impl<T: Real + Planes> Coupled<T> {
             iterations: params.iterations,
             gravity: Vec3::from(params.gravity),
             periodic,
-            // Retracted markers sit `retraction` inside the surface: their stencils reach
-            // that much deeper.
-            band_half_width: params.kernel.support() * 3f64.sqrt() + params.retraction + 1e-6,
+            band_half_width,
             band_prev: band.clone(),
             band,
+            band_estimate,
             area: markers.iter().flat_map(|m| m.iter()).map(|m| m.area).collect(),
             position: vec![[0.0; 3]; total],
             solid: vec![[0.0; 3]; total],
@@ -516,6 +543,7 @@ impl<T: Real + Planes> Coupled<T> {
             marker_force: vec![[0.0; 3]; total],
             velocity: vec![[0.0; 3]; nodes],
             interior: vec![InteriorMomentum::default(); n_bodies],
+            interior_nodes: vec![InteriorNodes::default(); n_bodies],
             loads: vec![BodyLoads::default(); n_bodies],
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
             change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
@@ -583,9 +611,15 @@ impl<T: Real + Planes> Coupled<T> {
     }
 
     /// Nodes in the band of the last step (counted once per body: where two bodies' bands
-    /// overlap, twice).
+    /// overlap, twice). When that band was not built (the bands were estimated to hold more
+    /// than half the grid, module docs), the estimate: the sum of the bodies' counts from
+    /// their last built bands.
     pub fn band_nodes(&self) -> usize {
-        self.band_prev.nodes()
+        if self.band_prev.whole_grid {
+            self.band_estimate.iter().sum()
+        } else {
+            self.band_prev.nodes()
+        }
     }
 
     /// Force of each marker on the fluid in the last step, `Σ_k ΔF_m^k A_m` (global marker
@@ -668,17 +702,8 @@ impl<T: Real + Planes> Coupled<T> {
             b.reset_load_history();
             *c = st.change;
         }
-        // The previous band := every row of the grid, so that the next step clears it all.
-        let g = self.fluid.grid();
-        self.band_prev.runs.clear();
-        self.band_prev.start.clear();
-        self.band_prev.start.push(0);
-        for z in 0..g.nz {
-            for y in 0..g.ny {
-                self.band_prev.runs.push(Run { x0: 0, len: g.nx as u32, y: y as u32, z: z as u32 });
-            }
-            self.band_prev.start.push(self.band_prev.runs.len());
-        }
+        // The previous band := the whole grid, so that the next step clears all of it.
+        self.band_prev.set_whole_grid();
         Ok(())
     }
 
@@ -744,18 +769,21 @@ impl<T: Real + Planes> Coupled<T> {
     /// 1. **Markers**: world positions `X_m` and solid velocities `U_m = v + ω × r` from the
     ///    bodies at `tⁿ` (global marker order: body by body, marker by marker).
     /// 2. **Stencils** ([`Stencils::build`], with the box's periodicity) and the **band** of
-    ///    each body (module docs), grouped by z-plane.
+    ///    each body (module docs), grouped by z-plane; not built when the bands are estimated
+    ///    to hold more than half the grid (module docs, "Dense beds").
     /// 3. **Interior sums before**: `P`, `L`, `V` of each free or fixed body from the fluid at
-    ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term.
-    /// 4. **Clear** the force field where the previous step spread (its band), and the marker
-    ///    force totals.
+    ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term. Each body's
+    ///    nodes and weights `α` are recorded for step 7.
+    /// 4. **Clear** the force field where the previous step spread (its band; the whole field
+    ///    when that was not built), and the marker force totals.
     /// 5. **`K` direct-forcing iterations**, each: the fluid velocity `u = (j + F/2)/ρ` at the
-    ///    band nodes (the current force field included, so each iteration sees the previous
-    ///    ones' correction); `u_m = I u` at the markers; `ΔF_m = 2 ρ_m (U_m − u_m)` with
-    ///    `ρ_m = 1`, times the marker volume `A_m Δ`, accumulated per marker; spread
-    ///    (adding) into the fluid's force field.
+    ///    band nodes (every node when the band was not built; the current force field
+    ///    included, so each iteration sees the previous ones' correction); `u_m = I u` at the
+    ///    markers; `ΔF_m = 2 ρ_m (U_m − u_m)` with `ρ_m = 1`, times the marker volume `A_m Δ`,
+    ///    accumulated per marker; spread (adding) into the fluid's force field.
     /// 6. **[`Fluid::step`]**: collision with the uniform body force plus the IBM force field.
-    /// 7. **Interior sums after** (fluid at `tⁿ⁺¹`, bodies still at `tⁿ`), then the loads:
+    /// 7. **Interior sums after** (fluid at `tⁿ⁺¹`, bodies still at `tⁿ`: over the nodes and
+    ///    weights recorded in step 3, in the same order, the same bits), then the loads:
     ///    per body `−Σ_m F_m`, `−Σ_m r_m × F_m`, plus the interior rate with its flux
     ///    correction ([`BodyLoads`]).
     /// 8. **Bodies advance** ([`RigidBody::step`]): free bodies with their hydrodynamic loads

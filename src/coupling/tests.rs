@@ -88,6 +88,7 @@ fn band_covers(retraction: f64) {
     for step in 0..12 {
         c.step().unwrap();
         // After the step, `band_prev` is this step's band and the stencils are this step's.
+        assert!(!c.band_prev.whole_grid, "step {step}: the band should have been built");
         let mut in_band = vec![false; grid.nodes()];
         for z in 0..grid.nz {
             for r in c.band_prev.plane(z) {
@@ -227,10 +228,13 @@ fn sphere_settles_on_the_floor_with_contacts() {
 }
 
 /// The band velocity and the clearing of the force field give the same bits over the bands
-/// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies).
+/// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies,
+/// which builds no band), and when the two alternate from step to step (every transition:
+/// a step after one without a built band clears the whole field).
 #[test]
 fn dense_and_sparse_band_paths_agree_bitwise() {
-    let run = |dense: bool| {
+    // `dense(step)`: the override of each step.
+    let run = |dense: &dyn Fn(usize) -> Option<bool>| {
         let mut fluid =
             Fluid::<f32>::new(Grid::new(20, 20, 24), FluidParams::bgk(0.05), Boundaries::closed_box())
                 .unwrap();
@@ -246,8 +250,11 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
             .collect();
         let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
         let mut c = Coupled::new(fluid, bodies, params).unwrap();
-        c.dense_override = Some(dense);
-        c.run(30).unwrap();
+        for step in 0..30 {
+            c.dense_override = dense(step);
+            c.step().unwrap();
+            assert_eq!(c.band_prev.whole_grid, dense(step) == Some(true), "step {step}");
+        }
         let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
         let bodies: Vec<u64> = c
             .bodies()
@@ -256,10 +263,62 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
             .collect();
         (pops, bodies, c.band_nodes())
     };
-    let (sparse, dense) = (run(false), run(true));
-    assert!(sparse.2 < 20 * 20 * 24, "the bands should not cover the grid here");
+    let sparse = run(&|_| Some(false));
+    let dense = run(&|_| Some(true));
+    // Dense, dense, sparse, sparse, dense, sparse, …: every transition, repeatedly.
+    let alternating = run(&|step| Some([true, true, false, false, true, false][step % 6]));
+    let chosen = run(&|_| None);
+    assert!(sparse.2 < 20 * 20 * 24 / 2, "the bands should not cover half the grid here");
     assert!(sparse.0 == dense.0, "populations differ");
     assert_eq!(sparse.1, dense.1, "bodies differ");
+    assert!(sparse.0 == alternating.0, "populations differ (alternating)");
+    assert_eq!(sparse.1, alternating.1, "bodies differ (alternating)");
+    assert!(sparse == chosen, "chosen by size: the band, as forced");
+}
+
+/// Small bodies whose bands hold more than half the grid: no band is built (the per-body
+/// estimate from `Coupled::new` decides before any step), the whole grid is used instead,
+/// and the results are those of the band, bit for bit.
+#[test]
+fn dense_bed_builds_no_band_and_agrees_bitwise() {
+    let run = |dense: Option<bool>| {
+        let n = 12;
+        let mut fluid =
+            Fluid::<f32>::new(Grid::new(n, n, n), FluidParams::bgk(0.05), Boundaries::periodic()).unwrap();
+        fluid.initialize(|x, y, z| (1.0, [1e-3 * ((x + 2 * y) as f64 * 0.4).sin(), 2e-4 * z as f64, 0.0]));
+        let bodies: Vec<RigidBody> = (0..8)
+            .map(|k| {
+                let at = |b: usize| 3.0 + 6.0 * ((k >> b) & 1) as f64 + 0.1 * k as f64;
+                RigidBody::new(Arc::new(Sphere::new(3.0)), 1.25, Motion::Free).with_position(Vec3::new(
+                    at(0),
+                    at(1),
+                    at(2),
+                ))
+            })
+            .collect();
+        let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
+        let mut c = Coupled::new(fluid, bodies, params).unwrap();
+        c.dense_override = dense;
+        let mut whole = true;
+        for _ in 0..20 {
+            c.step().unwrap();
+            whole &= c.band_prev.whole_grid;
+        }
+        let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
+        let bodies: Vec<u64> = c
+            .bodies()
+            .iter()
+            .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
+            .collect();
+        (pops, bodies, whole, c.band_nodes())
+    };
+    let (chosen, band) = (run(None), run(Some(false)));
+    assert!(chosen.2, "the band should not have been built");
+    assert!(!band.2);
+    assert!(band.3 > 12 * 12 * 12 / 2, "the bands hold {} nodes", band.3);
+    assert!(chosen.3 > 12 * 12 * 12 / 2, "the estimate is {} nodes", chosen.3);
+    assert!(chosen.0 == band.0, "populations differ");
+    assert_eq!(chosen.1, band.1, "bodies differ");
 }
 
 /// Equal marker sets are shared (one allocation), different ones are not, and the order of
@@ -344,4 +403,87 @@ fn retracted_stencils_need_the_widened_band() {
     let unwidened = DeltaKernel::default().support() * 3f64.sqrt();
     assert!(deepest > unwidened, "deepest stencil node at |sd| = {deepest}");
     assert!(deepest < c.band_half_width, "deepest {deepest}, band {}", c.band_half_width);
+}
+
+/// The interior sums of phases 3 and 7 equal, bit for bit, a fresh walk of each body's rows
+/// with the signed distance evaluated at the partial nodes (the computation phase 7 did
+/// before it gathered over phase 3's record): for a free tilted cylinder moving across the
+/// periodic boundaries and a free sphere next to a wall, over steps in which both move.
+#[test]
+fn interior_sums_equal_a_fresh_walk_bitwise() {
+    use super::band::{emit_runs, row_spans};
+    use super::interior::Moment;
+    use crate::lbm::FaceBoundary;
+    use crate::rigid::{Cylinder, Quat};
+    /// The walk as phases 3 and 7 both did it before the record (reference).
+    fn walk(fluid: &Fluid<f32>, body: &RigidBody, periodic: [bool; 3]) -> [u64; 7] {
+        let grid = fluid.grid();
+        let shape = body.shape().as_ref();
+        let c = body.position;
+        let (mut p, mut l, mut v) = (Vec3::zeros(), Vec3::zeros(), 0.0);
+        row_spans(body, grid, periodic, 0.5, Some(-0.5), |s| {
+            emit_runs(grid, periodic, (s.xa, s.xb, s.y, s.z), |run, shift| {
+                let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
+                fluid.for_each_in_run(run, |x, _rho, j, _f| {
+                    let xu = x as i64 + shift[0];
+                    let r = Vec3::new(xu as f64 - c.x, yu - c.y, zu - c.z);
+                    let alpha = if s.xs <= xu && xu <= s.xe {
+                        1.0
+                    } else {
+                        (0.5 - shape.signed_distance(&(s.origin + s.dir * xu as f64))).clamp(0.0, 1.0)
+                    };
+                    if alpha > 0.0 {
+                        v += alpha;
+                        let m = Vec3::from(j) * alpha;
+                        p += m;
+                        l += r.cross(&m);
+                    }
+                });
+            });
+        });
+        bits((p, l, v))
+    }
+    fn bits((p, l, v): (Vec3, Vec3, f64)) -> [u64; 7] {
+        [p.x, p.y, p.z, l.x, l.y, l.z, v].map(f64::to_bits)
+    }
+    let grid = Grid::new(20, 16, 18);
+    let bounds =
+        Boundaries::periodic().with(Face::ZMin, FaceBoundary::NoSlip).with(Face::ZMax, FaceBoundary::NoSlip);
+    let mut fluid = Fluid::<f32>::new(grid, FluidParams::bgk(0.1), bounds).unwrap();
+    fluid.initialize(|x, y, z| {
+        (1.0, [0.01 * (z as f64 / 18.0), 0.002 * (x as f64 / 20.0), 0.001 * (y as f64 / 16.0)])
+    });
+    let cyl = RigidBody::new(Arc::new(Cylinder::new(5.0, 12.0)), 1.25, Motion::Free)
+        .with_position(Vec3::new(18.3, 1.7, 9.2))
+        .with_velocities(Vec3::new(0.07, -0.05, 0.0), Vec3::new(0.011, 0.02, -0.013))
+        .with_orientation(Quat::from_euler_angles(0.7, -0.4, 1.1));
+    let sph = RigidBody::new(Arc::new(Sphere::new(4.0)), 1.5, Motion::Free)
+        .with_position(Vec3::new(6.0, 9.5, 2.6))
+        .with_velocities(Vec3::new(-0.03, 0.02, 0.0), Vec3::new(0.0, 0.01, 0.02));
+    let params = CouplingParams { gravity: [0.0, 0.0, -1e-4], ..Default::default() };
+    let mut c = Coupled::new(fluid, vec![cyl, sph], params).unwrap();
+    let start = c.bodies()[0].position;
+    for step in 0..10 {
+        // `Coupled::step`'s phases, with the sums checked after 3 and 7.
+        c.place_markers();
+        c.build_geometry().unwrap();
+        c.interior_sums(Moment::Before);
+        for (b, body) in c.bodies.iter().enumerate() {
+            let before = walk(&c.fluid, body, c.periodic);
+            assert_eq!(bits(c.interior[b].before), before, "step {step}, body {b}, before");
+        }
+        c.clear_forcing();
+        c.force();
+        c.fluid.step();
+        c.interior_sums(Moment::After);
+        for (b, body) in c.bodies.iter().enumerate() {
+            let after = walk(&c.fluid, body, c.periodic);
+            assert_eq!(bits(c.interior[b].after), after, "step {step}, body {b}, after");
+            assert_ne!(c.interior[b].before, c.interior[b].after, "step {step}, body {b}: the fluid changed");
+        }
+        c.collect_loads();
+        c.advance_bodies();
+        std::mem::swap(&mut c.band, &mut c.band_prev);
+    }
+    assert!((c.bodies()[0].position - start).norm() > 0.3, "the cylinder should have moved");
 }
