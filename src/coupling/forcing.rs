@@ -67,8 +67,12 @@ impl<T: Real + Planes> Coupled<T> {
     /// `ΔF_m = 2 ρ_m (U_m − u_m) A_m` (`ρ_m = 1`), accumulated per marker; spread (adding) into
     /// the fluid's force field.
     pub(super) fn force(&mut self) {
-        for _ in 0..self.iterations {
-            self.band_velocity();
+        for k in 0..self.iterations {
+            // A dense step's first iteration finds the velocity stored with the moments of the
+            // current fluid state (module `moments`): the force field is zero there now.
+            if !(k == 0 && self.band.whole_grid && self.moments.current(&self.fluid)) {
+                self.band_velocity();
+            }
             interpolate(&self.velocity, &self.stencils, &mut self.fluid_u);
             self.increment
                 .par_iter_mut()

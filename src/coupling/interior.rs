@@ -11,6 +11,7 @@
 use rayon::prelude::*;
 
 use super::band::{emit_runs, row_spans};
+use super::moments::Moments;
 use super::Coupled;
 use crate::lattice::Run;
 use crate::lbm::kernel::Planes;
@@ -31,8 +32,23 @@ impl<T: Real + Planes> Coupled<T> {
     /// The interior sums `(P, L, V)` of every body that has an interior term, into
     /// `self.interior[b].before` (recording the body's nodes in `self.interior_nodes[b]`) or
     /// `.after` (from that record); parallel over bodies, each body serial.
+    ///
+    /// In a dense step (the band is the whole grid) the momentum comes from the stored
+    /// moments of the fluid's current state (module `moments`), read here first if needed:
+    /// the same numbers as reading the fluid at each node.
     pub(super) fn interior_sums(&mut self, moment: Moment) {
-        let (fluid, periodic) = (&self.fluid, self.periodic);
+        let dense = self.band.whole_grid;
+        if dense && !self.moments.current(&self.fluid) {
+            self.moments.fill(&self.fluid, &mut self.velocity);
+        }
+        let grid = self.fluid.grid();
+        let fluid = if dense {
+            Source::Moments { moments: &self.moments, grid }
+        } else {
+            Source::Fluid(&self.fluid)
+        };
+        let fluid = &fluid;
+        let periodic = self.periodic;
         self.interior
             .par_iter_mut()
             .zip(self.interior_nodes.par_iter_mut())
@@ -86,7 +102,7 @@ impl InteriorNodes {
     /// `(P, L, V)` from `fluid`, each run summed as soon as it is recorded.
     fn record<T: Real + Planes>(
         &mut self,
-        fluid: &Fluid<T>,
+        fluid: &Source<T>,
         body: &RigidBody,
         periodic: [bool; 3],
     ) -> (Vec3, Vec3, f64) {
@@ -119,7 +135,7 @@ impl InteriorNodes {
     /// The sums `(P, L, V)` from `fluid` over the recorded nodes and weights: the same
     /// arithmetic in the same order as [`InteriorNodes::record`], so the same bits as walking
     /// the body again.
-    fn sums<T: Real + Planes>(&self, fluid: &Fluid<T>) -> (Vec3, Vec3, f64) {
+    fn sums<T: Real + Planes>(&self, fluid: &Source<T>) -> (Vec3, Vec3, f64) {
         let mut sums = Sums::default();
         let mut first = 0;
         for &r in &self.runs {
@@ -144,10 +160,10 @@ impl Sums {
     /// about `c` from the unwrapped coordinates; nodes with `α = 0` are skipped. The only
     /// place this arithmetic is written (phases 3 and 7 both call it).
     #[inline]
-    fn add_run<T: Real + Planes>(&mut self, fluid: &Fluid<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
+    fn add_run<T: Real + Planes>(&mut self, fluid: &Source<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
         let InteriorRun { run, shift } = nodes;
         let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
-        fluid.for_each_in_run(run, |x, _rho, j, _f| {
+        fluid.for_each_j(run, |x, j| {
             let xu = x as i64 + shift[0];
             let alpha = alpha[x - run.x0 as usize];
             if alpha > 0.0 {
@@ -164,5 +180,30 @@ impl Sums {
 impl From<Sums> for (Vec3, Vec3, f64) {
     fn from(s: Sums) -> Self {
         (s.p, s.l, s.v)
+    }
+}
+
+/// Where the interior sums read the momentum `j`: the fluid's populations, or the moments
+/// stored for its current state (dense steps, module `moments`): the same numbers.
+pub(super) enum Source<'a, T: Real + Planes> {
+    Fluid(&'a Fluid<T>),
+    Moments { moments: &'a Moments, grid: crate::lattice::Grid },
+}
+
+impl<T: Real + Planes> Source<'_, T> {
+    fn grid(&self) -> crate::lattice::Grid {
+        match self {
+            Source::Fluid(f) => f.grid(),
+            Source::Moments { grid, .. } => *grid,
+        }
+    }
+
+    /// `f(x, j)` for every node of `run`, x in order.
+    #[inline]
+    fn for_each_j(&self, run: Run, mut f: impl FnMut(usize, [f64; 3])) {
+        match self {
+            Source::Fluid(fluid) => fluid.for_each_in_run(run, |x, _rho, j, _f| f(x, j)),
+            Source::Moments { moments, grid } => moments.for_each_j(grid.nx, grid.ny, run, f),
+        }
     }
 }

@@ -166,9 +166,11 @@ mod forcing;
 mod interior;
 mod loads;
 mod markers;
+mod moments;
 
 use band::{band_runs, run_nodes, Band};
 use interior::{InteriorNodes, Moment};
+use moments::Moments;
 use loads::shell_inertia;
 
 /// Options of the coupling.
@@ -422,6 +424,8 @@ pub struct Coupled<T: Real + Planes> {
     marker_force: Vec<[f64; 3]>,
     /// Fluid velocity (interior node index); valid at the band nodes of the current step.
     velocity: Vec<[f64; 3]>,
+    /// Dense steps: `(ρ, j)` at every node for the fluid's current state (module `moments`).
+    moments: Moments,
     /// Per body, the interior-fluid momentum sums.
     interior: Vec<InteriorMomentum>,
     /// Per body, the nodes and weights of its interior sums, recorded in phase 3 and reused
@@ -542,6 +546,7 @@ impl<T: Real + Planes> Coupled<T> {
             increment: vec![[0.0; 3]; total],
             marker_force: vec![[0.0; 3]; total],
             velocity: vec![[0.0; 3]; nodes],
+            moments: Moments::default(),
             interior: vec![InteriorMomentum::default(); n_bodies],
             interior_nodes: vec![InteriorNodes::default(); n_bodies],
             loads: vec![BodyLoads::default(); n_bodies],
@@ -566,6 +571,7 @@ impl<T: Real + Planes> Coupled<T> {
     /// The fluid, mutably (initial conditions, obstacles). The force field must stay on and
     /// belongs to the coupling.
     pub fn fluid_mut(&mut self) -> &mut Fluid<T> {
+        self.moments.forget();
         &mut self.fluid
     }
 
@@ -676,6 +682,7 @@ impl<T: Real + Planes> Coupled<T> {
         if s.bodies.len() != self.bodies.len() {
             return Err(CouplingError::BodyCount { expected: self.bodies.len(), found: s.bodies.len() });
         }
+        self.moments.forget();
         self.fluid.restore(&s.fluid).map_err(|e| CouplingError::State(e.to_string()))?;
         if s.fluid.force.is_none() {
             self.fluid.enable_force_field();

@@ -176,6 +176,13 @@ impl<T: Real + Planes> Fluid<T> {
         self.time
     }
 
+    /// The force density `F` that [`Fluid::for_each_in_run`] reports at a node whose
+    /// force-field entry is zero (or without a field): the uniform body force, formed as
+    /// `(0 + F_body)` in the storage precision and widened, with the same operations.
+    pub fn zero_field_force(&self) -> [f64; 3] {
+        [0, 1, 2].map(|a| (T::ZERO + self.body[a]).to_f64())
+    }
+
     /// The instruction set the fused kernel runs with.
     pub fn isa(&self) -> Isa {
         self.isa
