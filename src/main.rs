@@ -60,10 +60,10 @@ struct ReproduceArgs {
     /// paper's particles in every case).
     #[arg(long, allow_negative_numbers = true)]
     scale: Option<f64>,
-    /// Impeller revolutions after the ramp (> 0); default 4 (about 30 min on 2 cores), or 0.25 with --quick.
+    /// Impeller revolutions after the ramp (> 0); default 30 (about 20 min on 2 cores at the default scale; not yet steady: the paper needs 100–200), or 0.25 with --quick.
     #[arg(long, allow_negative_numbers = true)]
     revolutions: Option<f64>,
-    /// A short smoke-test run (scale 0.25, 0.25 revolutions after the ramp): about 8 minutes on 2 cores.
+    /// A short smoke-test run (scale 0.25, 0.25 revolutions after the ramp): about a minute on 2 cores.
     #[arg(long)]
     quick: bool,
     /// Output directory (a sub-directory per case with --all); default target/reproduce/CASE.

@@ -45,9 +45,9 @@ use crate::settle::{dry_bed, DryBed, DryBedOptions};
 /// The paper's cases, in the order of `--all`.
 pub const CASES: [&str; 6] = ["disk-ld1", "disk-ld2", "disk-ld4", "pbt-ld1", "pbt-ld2", "pbt-ld4"];
 
-/// The default scale: `d = 3`, 63 × 63 × 60 nodes, chosen so that the default run of
-/// `pbt-ld2` finishes in about 30 minutes on 2 cores (the contacts of the bed dominate the
-/// step: about 0.3 s per step at this scale).
+/// The default scale: `d = 3`, 63 × 63 × 60 nodes, the smallest at which every case places
+/// its particles. The coupled step takes 25–40 ms here on 2 cores (measured 2026-11-24; the
+/// contacts of the bed are half of it), so the default 30 revolutions take about 20 minutes.
 pub const DEFAULT_SCALE: f64 = 0.25;
 /// The smallest scale: below it the random placement cannot fit the paper's particles
 /// (`--scale 0.2` placed only 937 of disk-ld2's 1644 after 15 s); 1/4 places all six cases
@@ -82,8 +82,11 @@ pub fn check_revolutions(revolutions: f64) -> Result<(), String> {
     Err(format!("--revolutions {revolutions}: must be finite and > 0"))
 }
 
-/// The default number of revolutions after the ramp.
-pub const DEFAULT_REVOLUTIONS: f64 = 4.0;
+/// The default number of revolutions after the ramp: what fits in about 20 minutes of
+/// stepping at the default scale on 2 cores (20 revolutions took 807 s on 2026-11-24, on a
+/// loaded machine). Not steady: the paper needs 100–200; ⟨z_p⟩/H was still rising by
+/// 1.3e-3 per revolution after 20.
+pub const DEFAULT_REVOLUTIONS: f64 = 30.0;
 /// `--quick`: scale (the default's: at 1/5 the random placement cannot fit the paper's 822
 /// cylinders of `ℓ/d = 2`).
 pub const QUICK_SCALE: f64 = 0.25;
@@ -424,22 +427,23 @@ mod tests;
 /// cores, printed before it starts.
 pub fn announce(names: &[String], scale: f64, revolutions: f64, quick: bool, default: bool) -> String {
     let grid = [251.0, 251.0, 240.0].map(|n: f64| (n * scale).round());
+    // Measured cost of the coupled step on 2 cores (pbt-ld2, 2026-11-24): about 0.012 µs
+    // (12 ns) per node and 0.2 µs per marker (25 ms per step at s = 1/4, 108 ms at s = 1/2);
+    // the markers scale with s², the nodes with s³, the steps per revolution with s.
+    let steps = (revolutions + 0.5) * 4000.0 * scale;
+    let nodes = grid.iter().product::<f64>();
+    let markers = 1.7e6 * scale * scale;
+    let minutes = steps * (nodes * 0.012e-6 + markers * 0.2e-6) / 60.0;
     let per_case = if quick {
-        "about 8 minutes per case on 2 cores (a smoke test: 0.75 revolution in all, far from steady)"
+        "about a minute per case on 2 cores (a smoke test: 0.75 revolution in all, far from steady)"
             .to_string()
     } else if default {
-        "about 30 minutes per case on 2 cores (the default size; the paper's scale is --scale 1, \
-         which takes days)"
-            .to_string()
+        format!(
+            "roughly {minutes:.0} minutes of stepping per case on 2 cores (the default size; not steady: the \
+             paper needs 100-200 revolutions; its scale is --scale 1, which takes days)"
+        )
     } else {
-        // Measured cost of the coupled step on 2 cores: about 0.012 µs (12 ns) per node and
-        // 0.5 µs per marker; the markers scale with s², the nodes with s³, the steps per
-        // revolution with s.
-        let steps = (revolutions + 0.5) * 4000.0 * scale;
-        let nodes = grid.iter().product::<f64>();
-        let markers = 1.7e6 * scale * scale;
-        let secs = steps * (nodes * 0.012e-6 + markers * 0.5e-6);
-        format!("roughly {:.0} minutes per case on 2 cores (estimate)", secs / 60.0)
+        format!("roughly {minutes:.0} minutes of stepping per case on 2 cores (estimate)")
     };
     format!(
         "reproduce {}: scale {scale:.3} ({} x {} x {} nodes, d = {:.2}), {revolutions} revolutions after the ramp: {per_case}",
