@@ -7,7 +7,6 @@ use rayon::prelude::*;
 use super::Coupled;
 use crate::ibm::{interpolate, spread_into, ForceSink};
 use crate::lattice::{NodeLayout, Run};
-use crate::lbm::kernel::Planes;
 use crate::lbm::{ForceFieldWriter, Real};
 
 /// The fluid's force field as a spreading target.
@@ -33,7 +32,7 @@ struct PlaneShared<V>(*mut V);
 unsafe impl<V> Sync for PlaneShared<V> {}
 unsafe impl<V> Send for PlaneShared<V> {}
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Phase 4: zero the force field on the previous step's band (the only nodes where it is
     /// non-zero) and the markers' force totals; the whole field when the previous band is the
     /// whole grid (not built, or unknown after a restore).
@@ -120,7 +119,7 @@ impl<T: Real + Planes> Coupled<T> {
     }
 }
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
     /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test). Only
     /// the cost depends on the answer: the band and the whole-grid paths give the same bits.

@@ -20,7 +20,7 @@ use rayon::prelude::*;
 
 use super::boundary::{minus_c, resolve, wall_term, Boundaries, LinkEnd};
 use super::collision::{moments, Rates};
-use super::kernel::{sweep, Isa, Planes, Sweep};
+use super::kernel::{sweep, Isa, Sweep};
 use super::{FluidError, FluidParams, Health, Real};
 use crate::lattice::{Grid, C, CS2, OPP, Q, W};
 
@@ -51,7 +51,7 @@ pub struct FluidState<T> {
 }
 
 /// The D3Q19 lattice-Boltzmann fluid on a box, with storage precision `T` (`f32` or `f64`).
-pub struct Fluid<T: Real + Planes> {
+pub struct Fluid<T: Real> {
     grid: Grid,
     params: FluidParams,
     boundaries: Boundaries,
@@ -113,7 +113,7 @@ pub fn equilibrium(rho: f64, u: [f64; 3]) -> [f64; Q] {
     })
 }
 
-impl<T: Real + Planes> Fluid<T> {
+impl<T: Real> Fluid<T> {
     /// A fluid at rest (`ρ = 1`, `u = 0`) filling the whole box, with no obstacles.
     pub fn new(grid: Grid, params: FluidParams, boundaries: Boundaries) -> Result<Self, FluidError> {
         params.validate()?;
@@ -689,7 +689,7 @@ impl<T: Real> ForceFieldWriter<'_, T> {
     }
 }
 
-impl<T: Real + Planes> Fluid<T> {
+impl<T: Real> Fluid<T> {
     /// The layout of the padded arrays (populations per direction, force field per component):
     /// interior node `(x, y, z)` sits at `(x+1) + px ((y+1) + py (z+1))`.
     pub fn padded_layout(&self) -> crate::lattice::NodeLayout {
