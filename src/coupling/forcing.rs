@@ -8,6 +8,7 @@ use super::Coupled;
 use crate::ibm::{interpolate, spread_into, ForceSink};
 use crate::lattice::{NodeLayout, Run};
 use crate::lbm::{ForceFieldWriter, Real};
+use crate::util::SharedMut;
 
 /// The fluid's force field as a spreading target.
 struct FieldSink<'a, T> {
@@ -25,12 +26,6 @@ impl<T: Real> ForceSink for FieldSink<'_, T> {
         self.writer.add(index, w, f)
     }
 }
-
-/// A grid-sized buffer written by the tasks of a per-plane loop (disjoint planes).
-struct PlaneShared<V>(*mut V);
-// SAFETY: used only by per-plane tasks that write nodes of their own plane.
-unsafe impl<V> Sync for PlaneShared<V> {}
-unsafe impl<V> Send for PlaneShared<V> {}
 
 impl<T: Real> Coupled<T> {
     /// Phase 4: zero the force field on the previous step's band (the only nodes where it is
@@ -95,7 +90,7 @@ impl<T: Real> Coupled<T> {
         let fluid = &self.fluid;
         let band = &self.band;
         let layout = grid.layout();
-        let out = PlaneShared(self.velocity.as_mut_ptr());
+        let out = SharedMut::new(&mut self.velocity);
         let out = &out;
         let all = band.whole_grid;
         let velocity = |run: Run| {
@@ -104,7 +99,7 @@ impl<T: Real> Coupled<T> {
                 let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
                 // SAFETY: node (x, y, z) lies in plane z, which only this task writes; the
                 // index is inside the grid-sized buffer.
-                unsafe { *out.0.add(row + x) = u };
+                unsafe { out.write(row + x, u) };
             });
         };
         (0..grid.nz).into_par_iter().for_each(|z| {
