@@ -6,7 +6,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use slurry::lattice::Grid;
 use slurry::lbm::{Boundaries, Fluid, FluidParams};
 
-fn bench<T: slurry::lbm::Real + slurry::lbm::kernel::Planes>(c: &mut Criterion, name: &str) {
+fn bench<T: slurry::lbm::Real>(c: &mut Criterion, name: &str) {
     let g = Grid::new(64, 64, 64);
     let mut group = c.benchmark_group(format!("aa_step_{name}"));
     group.throughput(Throughput::Elements(2 * g.nodes() as u64));

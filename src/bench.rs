@@ -10,7 +10,6 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::lattice::Grid;
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Boundaries, Fluid, FluidParams, Real};
 
 /// One benchmark measurement.
@@ -39,13 +38,7 @@ pub struct BenchResult {
 }
 
 /// Measures the fused kernel on a periodic `grid` with `threads` rayon workers.
-pub fn measure<T: Real + Planes>(
-    grid: Grid,
-    trt: bool,
-    threads: usize,
-    reps: usize,
-    seconds: f64,
-) -> BenchResult {
+pub fn measure<T: Real>(grid: Grid, trt: bool, threads: usize, reps: usize, seconds: f64) -> BenchResult {
     let params = if trt { FluidParams::trt(0.05) } else { FluidParams::bgk(0.05) };
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("thread pool");
     pool.install(|| {

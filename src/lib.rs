@@ -10,7 +10,8 @@
 //! Module map (see `ARCHITECTURE.md`, whose module table says which module may use which;
 //! `cargo xtask tidy` checks the imports against it):
 //! - [`lattice`]: the velocity set and the grid;
-//! - [`util`]: seeded random numbers, compensated summation, number formatting;
+//! - [`util`]: seeded random numbers, compensated summation, number formatting, the shared
+//!   mutable slice of the parallel phases ([`util::SharedMut`]);
 //! - [`lbm`]: the fluid solver (knows nothing of particles);
 //! - [`ibm`]: immersed-boundary transfer: delta kernels, marker stencils, interpolation and
 //!   spreading as an adjoint pair (knows nothing of the fluid solver);

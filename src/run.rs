@@ -43,7 +43,6 @@ use crate::io::{
     ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Health, Real};
 use crate::rigid::Vec3;
 
@@ -149,12 +148,12 @@ fn kept_max_mach(path: &Path) -> f64 {
 }
 
 /// The fluid alone, or the fluid coupled with particles.
-enum Solver<T: Real + Planes> {
+enum Solver<T: Real> {
     Fluid(Box<Fluid<T>>),
     Coupled(Box<Coupled<T>>),
 }
 
-impl<T: Real + Planes> Solver<T> {
+impl<T: Real> Solver<T> {
     fn fluid(&self) -> &Fluid<T> {
         match self {
             Solver::Fluid(f) => f,
@@ -197,11 +196,7 @@ fn progress_status(t: Option<&ImpellerTorques>, p: Option<&ParticleAggregates>, 
 }
 
 /// The impeller's torques and power numbers from the last step (body `index` of `c`).
-fn impeller_torques<T: Real + Planes>(
-    c: &Coupled<T>,
-    index: usize,
-    setup: &ImpellerSetup,
-) -> ImpellerTorques {
+fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup) -> ImpellerTorques {
     let loads = c.loads(index);
     let t = c.bodies()[index].time;
     let centre = setup.centre;
@@ -223,7 +218,7 @@ fn impeller_torques<T: Real + Planes>(
 
 /// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of the
 /// last step (a frame of `particles.h5`; also the bed of `slurry settle`).
-pub(crate) fn particle_frame<T: Real + Planes>(c: &Coupled<T>, n: usize) -> ParticleFrame {
+pub(crate) fn particle_frame<T: Real>(c: &Coupled<T>, n: usize) -> ParticleFrame {
     let step = c.fluid().time();
     let bodies = &c.bodies()[..n];
     let v3 = |v: &Vec3| [v.x, v.y, v.z];
@@ -293,7 +288,7 @@ fn progress_bar(steps: u64, quiet: bool) -> ProgressBar {
 
 /// Runs a case whose storage precision is `T`: set-up (or resume), the stepping loop, the final
 /// output.
-fn run_typed<T: Real + Planes + hdf5::H5Type>(
+fn run_typed<T: Real + hdf5::H5Type>(
     case: &Case,
     out_dir: &Path,
     opts: RunOptions,
@@ -305,7 +300,7 @@ fn run_typed<T: Real + Planes + hdf5::H5Type>(
 }
 
 /// A run in progress: the solver, the open output files and what the summary reports.
-struct Session<'a, T: Real + Planes> {
+struct Session<'a, T: Real> {
     case: &'a Case,
     out_dir: &'a Path,
     solver: Solver<T>,
@@ -336,7 +331,7 @@ struct Stepped {
     initial_mass: f64,
 }
 
-impl<'a, T: Real + Planes + hdf5::H5Type> Session<'a, T> {
+impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
     /// The solver at step 0 or restored from the checkpoint, `case.toml` written, the time
     /// series and the particle history created or cut back to the checkpoint's step.
     fn start(case: &'a Case, out_dir: &'a Path, opts: RunOptions) -> anyhow::Result<Self> {
@@ -617,7 +612,7 @@ impl<'a, T: Real + Planes + hdf5::H5Type> Session<'a, T> {
 
 /// Restores `solver` from the checkpoint at `path`, which must have been written for the case
 /// with `fingerprint` (and, for a coupled solver, hold the bodies' states).
-fn restore<T: Real + Planes + hdf5::H5Type>(
+fn restore<T: Real + hdf5::H5Type>(
     solver: &mut Solver<T>,
     path: &Path,
     fingerprint: &str,

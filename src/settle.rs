@@ -23,7 +23,6 @@ use anyhow::Context;
 use crate::case::{Case, Precision};
 use crate::coupling::Coupled;
 use crate::io::{atomic_write_bytes, ParticleHistoryWriter};
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Real};
 use crate::rigid::Vec3;
 use crate::run::{particle_frame, particle_statics};
@@ -92,11 +91,7 @@ pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::
     }
 }
 
-fn settle_typed<T: Real + Planes>(
-    case: &Case,
-    out_dir: &Path,
-    opts: SettleOptions,
-) -> anyhow::Result<SettleSummary> {
+fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
     let start = Instant::now();
     let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     let mut fluid = Fluid::<T>::new(case.grid(), case.fluid_params(), case.boundaries()).context("fluid")?;

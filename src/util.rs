@@ -1,4 +1,6 @@
-//! Small numerical utilities shared by tests, verification cases and benchmarks.
+//! Small utilities shared by the modules, tests, verification cases and benchmarks: seeded
+//! random numbers, compensated sums, integer floor and ceil, number formatting, and
+//! [`SharedMut`], the one shared mutable slice of the parallel phases.
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny, seeded, portable pseudo-random generator.
 /// Used wherever a test or verification case needs reproducible random input; it is not for
@@ -69,9 +71,92 @@ pub fn ceil_i64(x: f64) -> i64 {
     }
 }
 
+/// A mutable slice shared by the tasks of one parallel loop, each of which writes its own
+/// indices: the one pointer wrapper the parallel phases use where safe Rust cannot split the
+/// slice (the fluid's link operations and force-field writer, the IBM spreading, the band
+/// velocity per z-plane).
+///
+/// Made from a `&'a mut [T]` and holding that borrow for `'a`, so the slice outlives every
+/// task and nothing else touches it meanwhile. It is `Sync`, so `&SharedMut` may be handed to
+/// every task; its accesses are `unsafe` because the compiler cannot see the partition.
+///
+/// **Safety contract** (what every caller of [`SharedMut::read`] and [`SharedMut::write`]
+/// upholds, each at its call with a `SAFETY` comment naming the partition):
+/// - each index is in bounds (checked only in debug builds);
+/// - each task writes indices disjoint from those every other task writes or reads during the
+///   parallel phase (e.g. the nodes of its own z-plane or slab, or the targets of its own
+///   links);
+/// - reads do not race with writes: an index read by one task is written by no other task in
+///   the same phase (concurrent reads of one index are fine).
+///
+/// Under this contract the values written do not depend on the schedule, so results are
+/// bitwise the same for any thread count.
+pub struct SharedMut<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: a `SharedMut` is a mutable borrow of the slice; sending it, or sharing it between
+// threads, moves and copies `T` values between threads (hence `T: Send + Sync`), and every
+// access is `unsafe`, with the contract above excluding data races.
+unsafe impl<T: Send + Sync> Send for SharedMut<'_, T> {}
+unsafe impl<T: Send + Sync> Sync for SharedMut<'_, T> {}
+
+impl<'a, T> SharedMut<'a, T> {
+    /// Shares `slice` for the tasks of one parallel phase (see the safety contract above).
+    pub fn new(slice: &'a mut [T]) -> Self {
+        Self { ptr: slice.as_mut_ptr(), len: slice.len(), _borrow: std::marker::PhantomData }
+    }
+
+    /// The slice's length.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the slice is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// `slice[i]`.
+    ///
+    /// # Safety
+    /// `i < self.len()`, and no other task writes index `i` during the parallel phase.
+    #[inline(always)]
+    pub unsafe fn read(&self, i: usize) -> T
+    where
+        T: Copy,
+    {
+        debug_assert!(i < self.len);
+        *self.ptr.add(i)
+    }
+
+    /// `slice[i] = v`.
+    ///
+    /// # Safety
+    /// `i < self.len()`, and no other task reads or writes index `i` during the parallel phase.
+    #[inline(always)]
+    pub unsafe fn write(&self, i: usize, v: T) {
+        debug_assert!(i < self.len);
+        *self.ptr.add(i) = v;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shared_mut_tasks_write_disjoint_indices() {
+        use rayon::prelude::*;
+        let mut v = vec![0u64; 1000];
+        let shared = SharedMut::new(&mut v);
+        assert_eq!(shared.len(), 1000);
+        // SAFETY: task i writes index i only and reads nothing another task writes.
+        (0..1000usize).into_par_iter().for_each(|i| unsafe { shared.write(i, shared.read(i) + i as u64) });
+        assert!(v.iter().enumerate().all(|(i, &x)| x == i as u64));
+    }
 
     #[test]
     fn floor_and_ceil_match_std() {

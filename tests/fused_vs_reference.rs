@@ -21,7 +21,7 @@ fn obstacle(x: usize, y: usize, z: usize) -> bool {
     (3..5).contains(&x) && (2..4).contains(&y) && (1..3).contains(&z) || (x, y, z) == (9, 5, 4)
 }
 
-fn compare<T: Real + slurry::lbm::kernel::Planes>(b: Boundaries, params: FluidParams, ff: bool, obst: bool) {
+fn compare<T: Real>(b: Boundaries, params: FluidParams, ff: bool, obst: bool) {
     // nx = 13 is not a multiple of any lane count: tails take the scalar path too.
     let g = Grid::new(13, 7, 6);
     for isa in Isa::available() {

@@ -43,11 +43,12 @@ use rayon::prelude::*;
 
 use crate::rigid::{Marker, Mat3, RigidBody, Vec3};
 
-use super::engine::{Slot, MARGIN};
 use super::force::{pair_force, wall_distance, wall_force, Pose, WorldMarker};
 use super::grid::{fill, for_cells, Geometry};
 use super::params::ContactParams;
 use super::patches::Patches;
+use super::slots::Slot;
+use super::MARGIN;
 
 /// Default skin (lattice units): a body may move by 0.075 spacings before its entries are
 /// found again. Since only the bodies that moved are refreshed, a small skin costs little:

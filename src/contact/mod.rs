@@ -72,12 +72,13 @@
 //! moved by less than half the skin ([`DEFAULT_SKIN`]) since the build — across the contact
 //! sub-steps and across fluid steps.
 //!
-//! 1. **Broad phase** (at a rebuild). Bounding spheres (centre of mass, radius = largest
-//!    marker distance, computed once per body) in a uniform cell list of edge
+//! 1. **Broad phase** (at a rebuild; module `broad`). Bounding spheres (centre of mass,
+//!    radius = largest marker distance, computed once per body) in a uniform cell list of edge
 //!    `2 r_max + range`, `range = reach + skin`; candidate pairs `(a, b)`, `a < b`, with
 //!    `|c_a − c_b| < r_a + r_b + range` and not both non-free, sorted lexicographically. Bodies
 //!    much larger than the typical one (radius above 4 × the median: an impeller among
-//!    particles) stay out of the cell list and are tested against every body.
+//!    particles) stay out of the cell list and are tested against every body. A refresh tests
+//!    only the bodies that moved beyond half the skin against every body.
 //! 2. **Narrow phase, per candidate pair** (at a rebuild, in parallel). Early out if one body's
 //!    bounding sphere is farther than `range` from the other's marker box or surface. Each
 //!    body's markers are grouped once into static **patches** (body-frame cubes of edge 2,
@@ -96,11 +97,12 @@
 //! 4. **Evaluation from the list** (every sub-step, in parallel over chunks of body pairs):
 //!    each pair's two sides of markers are transformed to the world frame, and its listed
 //!    marker pairs closer than `reach` go through the force law.
-//! 5. **Determinism.** Each pair's listed marker pairs are sorted by `(i, j)` and summed
-//!    into a per-pair slot (force and torque on both partners); the slots are then added into
-//!    the per-body totals serially in pair order, then the wall slots in body order. The result
-//!    is bitwise the same for any number of threads, and bitwise equal to the brute-force
-//!    [`oracle`] whether the list was just built or reused (`tests/contact_oracle.rs`).
+//! 5. **Determinism** (module `slots`). Each pair's listed marker pairs are sorted by
+//!    `(i, j)` and summed into a per-pair slot (force and torque on both partners); the slots
+//!    are then added into the per-body totals serially in pair order, then the wall slots in
+//!    body order. The result is bitwise the same for any number of threads, and bitwise
+//!    equal to the brute-force [`oracle`] whether the list was just built or reused
+//!    (`tests/contact_oracle.rs`).
 //! 6. **No allocation in steady state.** Every buffer (poses, cell list, pairs, list, slots,
 //!    per-thread scratch) lives in [`Contacts`] and is cleared and refilled;
 //!    [`Contacts::buffer_capacity`] exposes the total capacity (constant from one call to the
@@ -199,22 +201,31 @@
 //! phase at every sub-step cost about 650 ns per interacting pair (2.13 s per fluid step for
 //! the same bed at full scale, measured in the previous version).
 
-mod engine;
+mod broad;
+mod contacts;
 mod force;
 mod grid;
 mod list;
 pub mod oracle;
 mod params;
 mod patches;
+mod slots;
 mod subcycle;
 
-pub use engine::{ContactLoad, ContactStats, Contacts};
+pub use contacts::Contacts;
 pub use list::DEFAULT_SKIN;
 pub use oracle::{brute_force, OracleResult};
 pub use params::{ContactParamError, ContactParams, Walls};
+pub use slots::{ContactLoad, ContactStats};
 pub use subcycle::step_bodies;
 
 /// Default number of contact sub-steps per fluid time step (module doc, "Stability analysis"):
 /// every single saturated contact is monotone at `d = 12` (`c h/m_red ≤ 0.73`) and stable at
 /// `d = 6` (`≤ 1.34 < 2`).
 pub const DEFAULT_SUBSTEPS: usize = 8;
+
+/// Safety margin (lattice units) added to every pruning radius, far above round-off (≲ 1e-12
+/// at coordinates of a few hundred) and far below any physical length: pruning (the broad
+/// phase, module `broad`, and the narrow phase, module `list`) never drops a pair that the
+/// exact criterion `|x_j − x_i| < reach` keeps.
+const MARGIN: f64 = 1e-6;

@@ -16,9 +16,9 @@
 
 use crate::rigid::{Marker, RigidBody, Vec3};
 
-use super::engine::{accumulate, ContactLoad, ContactStats, Slot};
 use super::force::{pair_force, wall_force, Pose, WorldMarker};
 use super::params::{ContactParams, Walls};
+use super::slots::{accumulate, stiffness_rates, ContactLoad, ContactStats, Slot};
 
 /// What the oracle computed.
 #[derive(Clone, Debug, PartialEq)]
@@ -104,6 +104,6 @@ pub fn brute_force<M: AsRef<[Marker]>>(
     let mut stats = ContactStats { candidate_pairs: pairs.len(), ..Default::default() };
     let mut stiffness = vec![[0.0; 2]; n];
     let wall_reaction = accumulate(&pairs, &slots, &wall_slots, &mut loads, &mut stiffness, &mut stats);
-    super::engine::stiffness_rates(bodies, &stiffness, &mut stats);
+    stiffness_rates(bodies, &stiffness, &mut stats);
     OracleResult { loads, wall_reaction, stats }
 }

@@ -3,8 +3,9 @@
 
 use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
 
-use super::engine::{ContactLoad, Contacts};
+use super::contacts::Contacts;
 use super::force::Pose;
+use super::slots::ContactLoad;
 
 /// One time step `Δt = 1` of `bodies` under external loads, with or without contacts: the one
 /// body update that the coupled step, the dry bed and the contact verification share.

@@ -7,8 +7,8 @@ use rayon::prelude::*;
 use super::Coupled;
 use crate::ibm::{interpolate, spread_into, ForceSink};
 use crate::lattice::{NodeLayout, Run};
-use crate::lbm::kernel::Planes;
 use crate::lbm::{ForceFieldWriter, Real};
+use crate::util::SharedMut;
 
 /// The fluid's force field as a spreading target.
 struct FieldSink<'a, T> {
@@ -27,13 +27,7 @@ impl<T: Real> ForceSink for FieldSink<'_, T> {
     }
 }
 
-/// A grid-sized buffer written by the tasks of a per-plane loop (disjoint planes).
-struct PlaneShared<V>(*mut V);
-// SAFETY: used only by per-plane tasks that write nodes of their own plane.
-unsafe impl<V> Sync for PlaneShared<V> {}
-unsafe impl<V> Send for PlaneShared<V> {}
-
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Phase 4: zero the force field on the previous step's band (the only nodes where it is
     /// non-zero) and the markers' force totals; the whole field when the previous band is the
     /// whole grid (not built, or unknown after a restore).
@@ -100,7 +94,7 @@ impl<T: Real + Planes> Coupled<T> {
         let fluid = &self.fluid;
         let band = &self.band;
         let layout = grid.layout();
-        let out = PlaneShared(self.velocity.as_mut_ptr());
+        let out = SharedMut::new(&mut self.velocity);
         let out = &out;
         let all = band.whole_grid;
         let velocity = |run: Run| {
@@ -109,7 +103,7 @@ impl<T: Real + Planes> Coupled<T> {
                 let u = [(j[0] + 0.5 * f[0]) / rho, (j[1] + 0.5 * f[1]) / rho, (j[2] + 0.5 * f[2]) / rho];
                 // SAFETY: node (x, y, z) lies in plane z, which only this task writes; the
                 // index is inside the grid-sized buffer.
-                unsafe { *out.0.add(row + x) = u };
+                unsafe { out.write(row + x, u) };
             });
         };
         (0..grid.nz).into_par_iter().for_each(|z| {
@@ -124,7 +118,7 @@ impl<T: Real + Planes> Coupled<T> {
     }
 }
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
     /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test). Only
     /// the cost depends on the answer: the band and the whole-grid paths give the same bits.

@@ -14,7 +14,6 @@ use super::band::{emit_runs, row_spans};
 use super::moments::Moments;
 use super::Coupled;
 use crate::lattice::Run;
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Real};
 use crate::rigid::{Motion, RigidBody, Vec3};
 
@@ -28,7 +27,7 @@ pub(super) enum Moment {
     After,
 }
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// The interior sums `(P, L, V)` of every body that has an interior term, into
     /// `self.interior[b].before` (recording the body's nodes in `self.interior_nodes[b]`) or
     /// `.after` (from that record); parallel over bodies, each body serial.
@@ -100,7 +99,7 @@ impl InteriorNodes {
     /// Records `body`'s interior nodes and weights (the nodes with `sd < ½`; nodes deeper
     /// than `sd < −½` have `α = 1` without evaluating `sd`) and returns their sums
     /// `(P, L, V)` from `fluid`, each run summed as soon as it is recorded.
-    fn record<T: Real + Planes>(
+    fn record<T: Real>(
         &mut self,
         fluid: &Source<T>,
         body: &RigidBody,
@@ -135,7 +134,7 @@ impl InteriorNodes {
     /// The sums `(P, L, V)` from `fluid` over the recorded nodes and weights: the same
     /// arithmetic in the same order as [`InteriorNodes::record`], so the same bits as walking
     /// the body again.
-    fn sums<T: Real + Planes>(&self, fluid: &Source<T>) -> (Vec3, Vec3, f64) {
+    fn sums<T: Real>(&self, fluid: &Source<T>) -> (Vec3, Vec3, f64) {
         let mut sums = Sums::default();
         let mut first = 0;
         for &r in &self.runs {
@@ -160,7 +159,7 @@ impl Sums {
     /// about `c` from the unwrapped coordinates; nodes with `α = 0` are skipped. The only
     /// place this arithmetic is written (phases 3 and 7 both call it).
     #[inline]
-    fn add_run<T: Real + Planes>(&mut self, fluid: &Source<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
+    fn add_run<T: Real>(&mut self, fluid: &Source<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
         let InteriorRun { run, shift } = nodes;
         let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
         fluid.for_each_j(run, |x, j| {
@@ -185,12 +184,12 @@ impl From<Sums> for (Vec3, Vec3, f64) {
 
 /// Where the interior sums read the momentum `j`: the fluid's populations, or the moments
 /// stored for its current state (dense steps, module `moments`): the same numbers.
-pub(super) enum Source<'a, T: Real + Planes> {
+pub(super) enum Source<'a, T: Real> {
     Fluid(&'a Fluid<T>),
     Moments { moments: &'a Moments, grid: crate::lattice::Grid },
 }
 
-impl<T: Real + Planes> Source<'_, T> {
+impl<T: Real> Source<'_, T> {
     fn grid(&self) -> crate::lattice::Grid {
         match self {
             Source::Fluid(f) => f.grid(),

@@ -7,11 +7,10 @@ use rayon::prelude::*;
 
 use super::{BodyLoads, Coupled};
 use crate::contact::step_bodies;
-use crate::lbm::kernel::Planes;
 use crate::lbm::Real;
 use crate::rigid::{Marker, RigidBody, Vec3};
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Phase 7 (end): per body `−Σ_m F_m`, `−Σ_m r_m × F_m` over its markers, and the interior
     /// rates with their flux corrections ([`BodyLoads`]); the previous step's contact loads are
     /// kept (the implicit shell reaction predicts with them). Parallel over bodies.

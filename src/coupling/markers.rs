@@ -5,10 +5,9 @@ use rayon::prelude::*;
 
 use super::band::{band_runs, run_nodes};
 use super::{Coupled, CouplingError};
-use crate::lbm::kernel::Planes;
 use crate::lbm::Real;
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Phase 1: every marker's world position `X_m` and solid velocity `U_m = v + ω × r` from
     /// the bodies at `tⁿ` (parallel over markers, global marker order).
     pub(super) fn place_markers(&mut self) {

@@ -155,7 +155,6 @@ use rayon::prelude::*;
 use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
 use crate::ibm::{DeltaKernel, StencilError, Stencils};
 use crate::lattice::Face;
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, FluidError, FluidState, Real};
 use crate::rigid::{
     LoadScheme, Marker, Quat, RetractionError, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING,
@@ -380,7 +379,7 @@ impl StepTimings {
 
 /// A lattice fluid with immersed rigid bodies (fixed, prescribed or free), coupled by
 /// direct-forcing IBM. See the module docs and [`Coupled::step`].
-pub struct Coupled<T: Real + Planes> {
+pub struct Coupled<T: Real> {
     fluid: Fluid<T>,
     bodies: Vec<RigidBody>,
     /// Per body, its forcing markers in the body frame: the surface retracted by
@@ -447,7 +446,7 @@ pub struct Coupled<T: Real + Planes> {
     contact_substeps: usize,
 }
 
-impl<T: Real + Planes> Coupled<T> {
+impl<T: Real> Coupled<T> {
     /// Couples `fluid` with `bodies`, turning on the fluid's force field (the coupling owns it
     /// from now on: it is zero away from the bodies and rewritten near them every step).
     /// Markers are generated once per body at `params.marker_spacing` and kept in a fixed

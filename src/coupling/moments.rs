@@ -21,7 +21,6 @@
 use rayon::prelude::*;
 
 use crate::lattice::Run;
-use crate::lbm::kernel::Planes;
 use crate::lbm::{Fluid, Real};
 
 /// Per node `(ρ, jx, jy, jz)` and the zero-field velocity, for one fluid state (module docs).
@@ -35,7 +34,7 @@ pub(super) struct Moments {
 
 impl Moments {
     /// Whether the stored values are those of `fluid`'s current state.
-    pub fn current<T: Real + Planes>(&self, fluid: &Fluid<T>) -> bool {
+    pub fn current<T: Real>(&self, fluid: &Fluid<T>) -> bool {
         self.time == Some(fluid.time())
     }
 
@@ -46,7 +45,7 @@ impl Moments {
 
     /// Reads `(ρ, j)` at every node of `fluid` and writes the zero-field velocity of every
     /// node into `velocity` (interior order; module docs). Parallel over z-planes.
-    pub fn fill<T: Real + Planes>(&mut self, fluid: &Fluid<T>, velocity: &mut [[f64; 3]]) {
+    pub fn fill<T: Real>(&mut self, fluid: &Fluid<T>, velocity: &mut [[f64; 3]]) {
         let grid = fluid.grid();
         let plane = grid.nx * grid.ny;
         self.rho_j.resize(grid.nodes(), [0.0; 4]);

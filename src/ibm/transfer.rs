@@ -61,6 +61,7 @@ use rayon::prelude::*;
 
 use super::stencil::{Stencils, MIN_PARALLEL_SLABS};
 use crate::lattice::NodeLayout;
+use crate::util::SharedMut;
 
 /// A vector value per node of the interior grid (index `x + nx (y + ny z)`), read by
 /// [`interpolate`]. Must be safe to read from several threads.
@@ -160,7 +161,7 @@ pub trait ForceSink: Sync {
 /// node count.
 pub fn spread(forces: &[[f64; 3]], stencils: &Stencils, field: &mut [[f64; 3]]) {
     assert_eq!(field.len(), stencils.grid().nodes(), "field on the stencils' grid");
-    let shared = SharedField { ptr: field.as_mut_ptr(), len: field.len(), layout: stencils.grid().layout() };
+    let shared = SharedField { field: SharedMut::new(field), layout: stencils.grid().layout() };
     spread_into(forces, stencils, &shared);
 }
 
@@ -208,26 +209,22 @@ fn add(cell: &mut [f64; 3], w: f64, f: [f64; 3]) {
     cell[2] += w * f[2];
 }
 
-/// A per-node slice shared by the tasks of one spreading phase, which write disjoint nodes.
-struct SharedField {
-    ptr: *mut [f64; 3],
-    len: usize,
+/// A per-node slice shared by the tasks of one spreading phase, which write disjoint nodes
+/// (see `spread_into`); the borrow of the field it was made from outlives every task.
+struct SharedField<'a> {
+    field: SharedMut<'a, [f64; 3]>,
     layout: NodeLayout,
 }
 
-// SAFETY: the tasks that share it write disjoint nodes (see `spread_into`), and the borrow of
-// the field it was made from outlives every task (they are joined before `spread` returns).
-unsafe impl Sync for SharedField {}
-unsafe impl Send for SharedField {}
-
-impl ForceSink for SharedField {
+impl ForceSink for SharedField<'_> {
     fn layout(&self) -> NodeLayout {
         self.layout
     }
 
     #[inline(always)]
     unsafe fn add(&self, n: usize, w: f64, f: [f64; 3]) {
-        debug_assert!(n < self.len);
-        add(&mut *self.ptr.add(n), w, f);
+        let mut cell = self.field.read(n);
+        add(&mut cell, w, f);
+        self.field.write(n, cell);
     }
 }

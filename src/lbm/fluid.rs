@@ -20,9 +20,10 @@ use rayon::prelude::*;
 
 use super::boundary::{minus_c, resolve, wall_term, Boundaries, LinkEnd};
 use super::collision::{moments, Rates};
-use super::kernel::{sweep, Isa, Planes, Sweep};
+use super::kernel::{sweep, Isa, Sweep};
 use super::{FluidError, FluidParams, Health, Real};
 use crate::lattice::{Grid, C, CS2, OPP, Q, W};
+use crate::util::SharedMut;
 
 /// One boundary link: before the odd sweep `f[ghost] ← f[own] + term`; after it
 /// `f[own] ← f[ghost] + term`. For periodic links `own` is the periodic image slot and
@@ -51,7 +52,7 @@ pub struct FluidState<T> {
 }
 
 /// The D3Q19 lattice-Boltzmann fluid on a box, with storage precision `T` (`f32` or `f64`).
-pub struct Fluid<T: Real + Planes> {
+pub struct Fluid<T: Real> {
     grid: Grid,
     params: FluidParams,
     boundaries: Boundaries,
@@ -113,7 +114,7 @@ pub fn equilibrium(rho: f64, u: [f64; 3]) -> [f64; Q] {
     })
 }
 
-impl<T: Real + Planes> Fluid<T> {
+impl<T: Real> Fluid<T> {
     /// A fluid at rest (`ρ = 1`, `u = 0`) filling the whole box, with no obstacles.
     pub fn new(grid: Grid, params: FluidParams, boundaries: Boundaries) -> Result<Self, FluidError> {
         params.validate()?;
@@ -460,28 +461,26 @@ impl<T: Real + Planes> Fluid<T> {
     /// `pre = true`: fill ghost and obstacle slots for the next odd sweep.
     /// `pre = false`: return what the odd sweep wrote there into the box.
     fn apply_links(&mut self, pre: bool) {
-        struct P<T>(*mut T);
-        unsafe impl<T> Sync for P<T> {}
-        unsafe impl<T> Send for P<T> {}
-        let f = P(self.f.as_mut_ptr());
-        let fr = &f;
+        let f = SharedMut::new(&mut self.f);
+        let f = &f;
         // SAFETY: every slot is the target of at most one link operation per phase
-        // (each slot belongs to one link), and sources are never targets in the same phase.
+        // (each slot belongs to one link), and sources are never targets in the same phase;
+        // every slot is one of the populations' array.
         self.periodic.par_chunks(4096).for_each(|links| unsafe {
             for l in links {
                 if pre {
-                    *fr.0.add(l.ghost) = *fr.0.add(l.own);
+                    f.write(l.ghost, f.read(l.own));
                 } else {
-                    *fr.0.add(l.own) = *fr.0.add(l.ghost);
+                    f.write(l.own, f.read(l.ghost));
                 }
             }
         });
         self.bounce.par_chunks(4096).for_each(|links| unsafe {
             for l in links {
                 if pre {
-                    *fr.0.add(l.ghost) = *fr.0.add(l.own) + l.term;
+                    f.write(l.ghost, f.read(l.own) + l.term);
                 } else {
-                    *fr.0.add(l.own) = *fr.0.add(l.ghost) + l.term;
+                    f.write(l.own, f.read(l.ghost) + l.term);
                 }
             }
         });
@@ -657,16 +656,11 @@ impl<T: Real + Planes> Fluid<T> {
 /// precision `T` on every write (`field ← T(field + w·f)`, the same `f64` operations as
 /// `ibm::spread` into a slice, so for `T = f64` the two agree bitwise).
 pub struct ForceFieldWriter<'a, T> {
-    ptr: *mut T,
+    /// The field, `3·stride` values; the methods that write are `unsafe` and require that no
+    /// two threads touch the same node at once ([`SharedMut`]'s contract, per node).
+    field: SharedMut<'a, T>,
     stride: usize,
-    len: usize,
-    _borrow: std::marker::PhantomData<&'a mut [T]>,
 }
-
-// SAFETY: the writer is a mutable borrow of the field; the methods that write are `unsafe`
-// and require that no two threads touch the same node at once.
-unsafe impl<T: Send> Send for ForceFieldWriter<'_, T> {}
-unsafe impl<T: Send> Sync for ForceFieldWriter<'_, T> {}
 
 impl<T: Real> ForceFieldWriter<'_, T> {
     /// `field[p] += w · f` (component-wise, accumulated in `f64`, stored as `T`).
@@ -676,10 +670,10 @@ impl<T: Real> ForceFieldWriter<'_, T> {
     /// during the call.
     #[inline(always)]
     pub unsafe fn add(&self, p: usize, w: f64, f: [f64; 3]) {
-        debug_assert!(p < self.stride && self.len == 3 * self.stride);
+        debug_assert!(p < self.stride && self.field.len() == 3 * self.stride);
         for (a, fa) in f.iter().enumerate() {
-            let slot = self.ptr.add(a * self.stride + p);
-            *slot = T::from_f64((*slot).to_f64() + w * *fa);
+            let i = a * self.stride + p;
+            self.field.write(i, T::from_f64(self.field.read(i).to_f64() + w * *fa));
         }
     }
 
@@ -691,12 +685,12 @@ impl<T: Real> ForceFieldWriter<'_, T> {
     pub unsafe fn clear(&self, p: usize) {
         debug_assert!(p < self.stride);
         for a in 0..3 {
-            *self.ptr.add(a * self.stride + p) = T::ZERO;
+            self.field.write(a * self.stride + p, T::ZERO);
         }
     }
 }
 
-impl<T: Real + Planes> Fluid<T> {
+impl<T: Real> Fluid<T> {
     /// The layout of the padded arrays (populations per direction, force field per component):
     /// interior node `(x, y, z)` sits at `(x+1) + px ((y+1) + py (z+1))`.
     pub fn padded_layout(&self) -> crate::lattice::NodeLayout {
@@ -709,12 +703,7 @@ impl<T: Real + Planes> Fluid<T> {
     /// If the force field is off.
     pub fn force_field_writer(&mut self) -> ForceFieldWriter<'_, T> {
         assert!(self.force_field_enabled(), "force field is off: call enable_force_field first");
-        ForceFieldWriter {
-            ptr: self.force.as_mut_ptr(),
-            stride: self.stride,
-            len: self.force.len(),
-            _borrow: std::marker::PhantomData,
-        }
+        ForceFieldWriter { field: SharedMut::new(&mut self.force), stride: self.stride }
     }
 
     /// Density, momentum `j = Σ f_i c_i` (no force correction) and force density `F` (the

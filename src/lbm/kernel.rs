@@ -272,9 +272,11 @@ unsafe fn plane_avx512<
     plane::<T, K, ODD, TRT, FF>(s, z)
 }
 
-/// Per-precision choice of lane counts; implemented for `f32` and `f64`.
+/// Per-precision choice of lane counts; implemented for `f32` and `f64`. A supertrait of
+/// [`Real`], so that a bound outside `lbm` names `T: Real` alone (this trait is the kernel's
+/// concern, not the caller's).
 #[doc(hidden)]
-pub trait Planes: Real {
+pub trait Planes: Sized {
     /// Updates plane `z` with the kernel for `isa`.
     ///
     /// # Safety
@@ -313,7 +315,7 @@ planes!(f64, V<f64, 2>, V<f64, 4>, V<f64, 8>);
 planes!(f32, V<f32, 4>, V<f32, 8>, V<f32, 16>);
 
 /// Runs one sweep (even or odd) over all interior planes, in parallel with rayon.
-pub(crate) fn sweep<T: Planes>(isa: Isa, s: &Sweep<T>, nz: usize, odd: bool, trt: bool, ff: bool) {
+pub(crate) fn sweep<T: Real>(isa: Isa, s: &Sweep<T>, nz: usize, odd: bool, trt: bool, ff: bool) {
     use rayon::prelude::*;
     macro_rules! go {
         ($o:literal, $t:literal, $f:literal) => {

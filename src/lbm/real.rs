@@ -7,12 +7,16 @@
 //! scalar results are bitwise equal (no fused multiply-add is used anywhere: Rust never
 //! contracts `a * b + c` on its own).
 
+use super::kernel::Planes;
 use std::fmt::{Debug, Display};
 use std::ops::{Add, AddAssign, Div, Mul, Neg, Sub};
 
-/// A floating-point storage type for populations: `f32` or `f64`.
+/// A floating-point storage type for populations: `f32` or `f64`. Each also carries the fused
+/// kernel's per-precision dispatch (`kernel::Planes`, internal), so `T: Real` is the whole bound a
+/// solver type needs.
 pub trait Real:
     Lane<S = Self>
+    + Planes
     + Copy
     + Send
     + Sync

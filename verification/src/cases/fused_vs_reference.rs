@@ -24,7 +24,6 @@
 //! (`tests/fused_vs_reference.rs`); this case reports the counts.
 
 use slurry::lattice::{Face, Grid, Q};
-use slurry::lbm::kernel::Planes;
 use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams, Isa, Real, ReferenceFluid};
 
 use crate::{CaseOutput, Check, Table, Tier};
@@ -96,7 +95,7 @@ fn configs() -> Vec<Config> {
 
 /// `(compared values, mismatches)` for one configuration, precision, model, force setting
 /// and ISA, over `steps` steps.
-fn compare<T: Real + Planes>(c: &Config, params: FluidParams, ff: bool, isa: Isa, steps: u64) -> (u64, u64) {
+fn compare<T: Real>(c: &Config, params: FluidParams, ff: bool, isa: Isa, steps: u64) -> (u64, u64) {
     let g = c.grid;
     let solid = |x: usize, y: usize, z: usize| c.obstacles && block(x, y, z);
     let mut a = Fluid::<T>::new(g, params, c.boundaries).expect("valid set-up");

@@ -38,8 +38,7 @@
 //! with non-zero sum: `≈ u F` per step), so the f64 runs are the sensitive ones.
 
 use slurry::lattice::{Face, Grid, Q};
-use slurry::lbm::kernel::Planes;
-use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams};
+use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams, Real};
 
 use crate::{CaseOutput, Check, Table, Tier};
 
@@ -64,7 +63,7 @@ struct Outcome {
     h_max: f64,
 }
 
-fn h_max<T: Planes>(f: &Fluid<T>) -> f64 {
+fn h_max<T: Real>(f: &Fluid<T>) -> f64 {
     let g = f.grid();
     let mut m = 0.0f64;
     for z in 0..g.nz {
@@ -81,7 +80,7 @@ fn h_max<T: Planes>(f: &Fluid<T>) -> f64 {
     m
 }
 
-fn periodic<T: Planes>(n: usize, params: FluidParams, steps: u64) -> Outcome {
+fn periodic<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     let g = Grid::new(n, n, n);
     let field = random_field(g, 0x5EED_0001);
     let mut f = Fluid::<T>::new(g, params, Boundaries::periodic()).expect("valid set-up");
@@ -103,7 +102,7 @@ fn periodic<T: Planes>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     }
 }
 
-fn lid_box<T: Planes>(n: usize, params: FluidParams, steps: u64) -> Outcome {
+fn lid_box<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     let g = Grid::new(n, n, n);
     let b =
         Boundaries::closed_box().with(Face::ZMax, FaceBoundary::MovingWall { velocity: [0.05, 0.0, 0.0] });

@@ -16,8 +16,7 @@ pub mod torque_free;
 pub mod wet_lubrication;
 
 use slurry::lattice::{Face, Grid};
-use slurry::lbm::kernel::Planes;
-use slurry::lbm::{Boundaries, FaceBoundary, Fluid};
+use slurry::lbm::{Boundaries, FaceBoundary, Fluid, Real};
 
 use crate::Case;
 
@@ -108,7 +107,7 @@ pub(crate) fn channel(top: FaceBoundary) -> Boundaries {
 }
 
 /// The `u_x(z)` profile at `x = y = 0` of a channel.
-pub(crate) fn profile<T: Planes>(f: &Fluid<T>) -> Vec<f64> {
+pub(crate) fn profile<T: Real>(f: &Fluid<T>) -> Vec<f64> {
     (0..f.grid().nz).map(|z| f.velocity(0, 0, z)[0]).collect()
 }
 
@@ -137,7 +136,7 @@ pub(crate) const STEADY_TOL: f64 = 1e-13;
 /// `Δ/(1 − e^{−1}) ≈ 1.6 Δ < 1.6e-13` relative: three orders below the 1e-10 the exact cases
 /// (TRT Poiseuille) are held to, nine below the BGK errors. It takes about 30 e-folding times
 /// (`≈ 3 N²/ν` steps) from rest.
-pub(crate) fn run_to_steady<T: Planes>(f: &mut Fluid<T>, nu: f64, max_steps: u64) -> Steady {
+pub(crate) fn run_to_steady<T: Real>(f: &mut Fluid<T>, nu: f64, max_steps: u64) -> Steady {
     let n = f.grid().nz as f64;
     let k = ((n * n / (std::f64::consts::PI.powi(2) * nu)).ceil() as u64).max(2);
     let k = k + k % 2;
