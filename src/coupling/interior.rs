@@ -41,11 +41,8 @@ impl<T: Real> Coupled<T> {
             self.moments.fill(&self.fluid, &mut self.velocity);
         }
         let grid = self.fluid.grid();
-        let fluid = if dense {
-            Source::Moments { moments: &self.moments, grid }
-        } else {
-            Source::Fluid(&self.fluid)
-        };
+        let fluid =
+            if dense { Source::Moments { moments: &self.moments, grid } } else { Source::Fluid(&self.fluid) };
         let fluid = &fluid;
         let periodic = self.periodic;
         self.interior

@@ -169,8 +169,8 @@ mod moments;
 
 use band::{band_runs, run_nodes, Band};
 use interior::{InteriorNodes, Moment};
-use moments::Moments;
 use loads::shell_inertia;
+use moments::Moments;
 
 /// Options of the coupling.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -57,8 +57,11 @@ impl Moments {
                     let row = y * grid.nx;
                     fluid.for_each_in_run(run, |x, rho, j, _f| {
                         rho_j[row + x] = [rho, j[0], j[1], j[2]];
-                        vel[row + x] =
-                            [(j[0] + 0.5 * f0[0]) / rho, (j[1] + 0.5 * f0[1]) / rho, (j[2] + 0.5 * f0[2]) / rho];
+                        vel[row + x] = [
+                            (j[0] + 0.5 * f0[0]) / rho,
+                            (j[1] + 0.5 * f0[1]) / rho,
+                            (j[2] + 0.5 * f0[2]) / rho,
+                        ];
                     });
                 }
             },
