@@ -101,15 +101,21 @@ pub(crate) fn pair_force(p: &ContactParams, i: &WorldMarker, j: &WorldMarker) ->
         return None;
     }
     let w = (p.lambda - dl) / p.lambda;
-    law(p, &nhat, delta, w, &(j.u - i.u)).map(|force| Hit { force, delta, w })
+    law(p, &nhat, delta, w, &(j.u - i.u))
 }
 
-/// An interacting marker pair (or marker and wall): the force on the marker, `δ` and `w`.
+/// An interacting marker pair (or marker and wall): the force on the marker, `δ`, `w`, and
+/// the pair's normal damping coefficient `kⁿ (1/δ* − 1/δ_d) w` (0 beyond `δ_d` or with the
+/// lubrication off) and spring constant `k w` (0 beyond `δ0` or with the elastic part off):
+/// `−∂F·n̂/∂(Δu·n̂)` and `−∂F·n̂/∂δ` at fixed `n̂` and `w`, what the sub-step's stability
+/// depends on ([`super::ContactStats::damping_rate`]), formed from the law's own factors.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Hit {
     pub force: Vec3,
     pub delta: f64,
     pub w: f64,
+    pub damping: f64,
+    pub spring: f64,
 }
 
 impl Hit {
@@ -122,21 +128,6 @@ impl Hit {
         } else {
             0.0
         }
-    }
-
-    /// The pair's normal damping coefficient `kⁿ (1/δ* − 1/δ_d) w` (0 beyond `δ_d` or with
-    /// the lubrication off) and spring constant `k w` (0 beyond `δ0` or with the elastic part
-    /// off): `−∂F·n̂/∂(Δu·n̂)` and `−∂F·n̂/∂δ` at fixed `n̂` and `w`, what the sub-step's
-    /// stability depends on ([`super::ContactStats::damping_rate`]).
-    #[inline(always)]
-    pub fn stiffness(&self, p: &ContactParams) -> (f64, f64) {
-        let damping = if p.lubrication && self.delta < p.delta_d {
-            p.k_n * (1.0 / self.delta.max(p.delta_sat) - 1.0 / p.delta_d) * self.w
-        } else {
-            0.0
-        };
-        let spring = if p.elastic && self.delta < p.delta0 { p.k * self.w } else { 0.0 };
-        (damping, spring)
     }
 }
 
@@ -158,7 +149,7 @@ pub(crate) fn wall_force(
         return None;
     }
     let delta = wall_distance(axis, plane, nhat, x);
-    law(p, nhat, delta, 1.0, &(-u)).map(|force| Hit { force, delta, w: 1.0 })
+    law(p, nhat, delta, 1.0, &(-u))
 }
 
 /// Distance from `x` to the wall plane, measured into the fluid (negative beyond the wall).
@@ -172,25 +163,28 @@ pub(crate) fn wall_distance(axis: usize, plane: f64, nhat: &Vec3, x: &Vec3) -> f
 }
 
 /// Table 1 for given `n̂` (from `i` toward its partner), `δ`, weight `w` and relative velocity
-/// `Δu = u_partner − u_i`: the force on `i`.
+/// `Δu = u_partner − u_i`: the force on `i`, and the pair's stiffness ([`Hit`]).
 #[inline(always)]
-fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<Vec3> {
+fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<Hit> {
     let elastic = p.elastic && delta < p.delta0;
     let lub = p.lubrication && delta < p.delta_d;
     if !elastic && !lub {
         return None;
     }
-    let mut f = Vec3::zeros();
+    let mut h = Hit { force: Vec3::zeros(), delta, w, damping: 0.0, spring: 0.0 };
     if elastic {
-        f -= nhat * (p.k * (p.delta0 - delta) * w);
+        h.force -= nhat * (p.k * (p.delta0 - delta) * w);
+        h.spring = p.k * w;
     }
     if lub {
         let ds = delta.max(p.delta_sat);
         let dun = nhat * du.dot(nhat);
         let dut = du - dun;
-        f += (dun * p.k_n + dut * p.k_t) * ((1.0 / ds - 1.0 / p.delta_d) * w);
+        let g = (1.0 / ds - 1.0 / p.delta_d) * w;
+        h.force += (dun * p.k_n + dut * p.k_t) * g;
+        h.damping = p.k_n * g;
     }
-    Some(f)
+    Some(h)
 }
 
 #[cfg(test)]

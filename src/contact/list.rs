@@ -713,16 +713,15 @@ impl PairList {
         // The pairs within reach, found without branches (about a third of the listed pairs
         // are: a branch per pair would be mispredicted), then through the force law in order.
         let mpairs = &self.cur.mpairs[self.cur.pair_start[k] as usize..self.cur.pair_start[k + 1] as usize];
-        let mut within = [0u32; FILTER_CHUNK];
+        let mut within = [[0u32; 2]; FILTER_CHUNK];
         for chunk in mpairs.chunks(FILTER_CHUNK) {
             let mut n = 0;
-            for (q, &[i, j]) in chunk.iter().enumerate() {
+            for &[i, j] in chunk {
                 let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
-                within[n] = q as u32;
+                within[n] = [i, j];
                 n += usize::from((mj.x - mi.x).norm_squared() < reach2);
             }
-            for &q in &within[..n] {
-                let [i, j] = chunk[q as usize];
+            for &[i, j] in &within[..n] {
                 let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
                 if let Some(h) = pair_force(p, mi, mj) {
                     slot.add_pair(&h, p, &mi.r, &mj.r);

@@ -81,7 +81,7 @@ pub(crate) struct Slot {
     pub min_delta: f64,
     pub energy: f64,
     /// `Σ` of the interacting pairs' normal damping coefficients and spring constants
-    /// ([`Hit::stiffness`]).
+    /// ([`Hit`]).
     pub damping: f64,
     pub spring: f64,
 }
@@ -126,9 +126,8 @@ impl Slot {
         self.count += 1;
         self.min_delta = self.min_delta.min(h.delta);
         self.energy += h.elastic_energy(p);
-        let (c, k) = h.stiffness(p);
-        self.damping += c;
-        self.spring += k;
+        self.damping += h.damping;
+        self.spring += h.spring;
     }
 }
 

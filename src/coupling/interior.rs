@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::band::{emit_runs, row_spans};
 use super::moments::Moments;
 use super::Coupled;
-use crate::lattice::Run;
+use crate::lattice::{Grid, Run};
 use crate::lbm::{Fluid, Real};
 use crate::rigid::{Motion, RigidBody, Vec3};
 
@@ -40,11 +40,8 @@ impl<T: Real> Coupled<T> {
         if dense && !self.moments.current(&self.fluid) {
             self.moments.fill(&self.fluid, &mut self.velocity);
         }
-        let grid = self.fluid.grid();
-        let fluid =
-            if dense { Source::Moments { moments: &self.moments, grid } } else { Source::Fluid(&self.fluid) };
-        let fluid = &fluid;
-        let periodic = self.periodic;
+        let source = if dense { Source::Moments(&self.moments) } else { Source::Fluid(&self.fluid) };
+        let (source, grid, periodic) = (&source, self.fluid.grid(), self.periodic);
         self.interior
             .par_iter_mut()
             .zip(self.interior_nodes.par_iter_mut())
@@ -52,10 +49,10 @@ impl<T: Real> Coupled<T> {
             .for_each(|((im, nodes), body)| {
                 if has_interior_term(body) {
                     match moment {
-                        Moment::Before => im.before = nodes.record(fluid, body, periodic),
+                        Moment::Before => im.before = nodes.record(source, grid, body, periodic),
                         Moment::After => {
                             debug_assert_eq!(nodes.centre, body.position, "the body moved since phase 3");
-                            im.after = nodes.sums(fluid);
+                            im.after = nodes.sums(source);
                         }
                     }
                 }
@@ -95,14 +92,14 @@ pub(super) struct InteriorNodes {
 impl InteriorNodes {
     /// Records `body`'s interior nodes and weights (the nodes with `sd < ½`; nodes deeper
     /// than `sd < −½` have `α = 1` without evaluating `sd`) and returns their sums
-    /// `(P, L, V)` from `fluid`, each run summed as soon as it is recorded.
+    /// `(P, L, V)` from `source`, each run summed as soon as it is recorded.
     fn record<T: Real>(
         &mut self,
-        fluid: &Source<T>,
+        source: &Source<T>,
+        grid: Grid,
         body: &RigidBody,
         periodic: [bool; 3],
     ) -> (Vec3, Vec3, f64) {
-        let grid = fluid.grid();
         let shape = body.shape().as_ref();
         self.runs.clear();
         self.alpha.clear();
@@ -122,21 +119,21 @@ impl InteriorNodes {
                 }
                 let r = InteriorRun { run, shift };
                 runs.push(r);
-                sums.add_run(fluid, r, &alpha[first..], centre);
+                sums.add_run(source, r, &alpha[first..], centre);
             });
         });
         sums.into()
     }
 
-    /// The sums `(P, L, V)` from `fluid` over the recorded nodes and weights: the same
+    /// The sums `(P, L, V)` from `source` over the recorded nodes and weights: the same
     /// arithmetic in the same order as [`InteriorNodes::record`], so the same bits as walking
     /// the body again.
-    fn sums<T: Real>(&self, fluid: &Source<T>) -> (Vec3, Vec3, f64) {
+    fn sums<T: Real>(&self, source: &Source<T>) -> (Vec3, Vec3, f64) {
         let mut sums = Sums::default();
         let mut first = 0;
         for &r in &self.runs {
             let end = first + r.run.len as usize;
-            sums.add_run(fluid, r, &self.alpha[first..end], self.centre);
+            sums.add_run(source, r, &self.alpha[first..end], self.centre);
             first = end;
         }
         sums.into()
@@ -156,10 +153,10 @@ impl Sums {
     /// about `c` from the unwrapped coordinates; nodes with `α = 0` are skipped. The only
     /// place this arithmetic is written (phases 3 and 7 both call it).
     #[inline]
-    fn add_run<T: Real>(&mut self, fluid: &Source<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
+    fn add_run<T: Real>(&mut self, source: &Source<T>, nodes: InteriorRun, alpha: &[f64], c: Vec3) {
         let InteriorRun { run, shift } = nodes;
         let (yu, zu) = ((run.y as i64 + shift[1]) as f64, (run.z as i64 + shift[2]) as f64);
-        fluid.for_each_j(run, |x, j| {
+        source.for_each_j(run, |x, j| {
             let xu = x as i64 + shift[0];
             let alpha = alpha[x - run.x0 as usize];
             if alpha > 0.0 {
@@ -181,25 +178,18 @@ impl From<Sums> for (Vec3, Vec3, f64) {
 
 /// Where the interior sums read the momentum `j`: the fluid's populations, or the moments
 /// stored for its current state (dense steps, module `moments`): the same numbers.
-pub(super) enum Source<'a, T: Real> {
+enum Source<'a, T: Real> {
     Fluid(&'a Fluid<T>),
-    Moments { moments: &'a Moments, grid: crate::lattice::Grid },
+    Moments(&'a Moments),
 }
 
 impl<T: Real> Source<'_, T> {
-    fn grid(&self) -> crate::lattice::Grid {
-        match self {
-            Source::Fluid(f) => f.grid(),
-            Source::Moments { grid, .. } => *grid,
-        }
-    }
-
     /// `f(x, j)` for every node of `run`, x in order.
     #[inline]
     fn for_each_j(&self, run: Run, mut f: impl FnMut(usize, [f64; 3])) {
         match self {
             Source::Fluid(fluid) => fluid.for_each_in_run(run, |x, _rho, j, _f| f(x, j)),
-            Source::Moments { moments, grid } => moments.for_each_j(grid.nx, grid.ny, run, f),
+            Source::Moments(moments) => moments.for_each_j(run, f),
         }
     }
 }

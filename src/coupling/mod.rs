@@ -423,7 +423,7 @@ pub struct Coupled<T: Real> {
     marker_force: Vec<[f64; 3]>,
     /// Fluid velocity (interior node index); valid at the band nodes of the current step.
     velocity: Vec<[f64; 3]>,
-    /// Dense steps: `(ρ, j)` at every node for the fluid's current state (module `moments`).
+    /// Dense steps: the momentum `j` at every node for the fluid's current state (module `moments`).
     moments: Moments,
     /// Per body, the interior-fluid momentum sums.
     interior: Vec<InteriorMomentum>,

@@ -227,6 +227,17 @@ fn sphere_settles_on_the_floor_with_contacts() {
     assert!((support + weight.z).abs() < 0.02 * weight.norm(), "support {support} vs weight {}", weight.z);
 }
 
+/// The bits of the fluid's populations and of the bodies' positions and velocities.
+fn state_bits(c: &Coupled<f32>) -> (Vec<u32>, Vec<u64>) {
+    let pops = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
+    let bodies = c
+        .bodies()
+        .iter()
+        .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
+        .collect();
+    (pops, bodies)
+}
+
 /// The band velocity and the clearing of the force field give the same bits over the bands
 /// only and over the whole grid (the size-chosen shortcut for dense beds of small bodies,
 /// which builds no band), and when the two alternate from step to step (every transition:
@@ -255,12 +266,7 @@ fn dense_and_sparse_band_paths_agree_bitwise() {
             c.step().unwrap();
             assert_eq!(c.band_prev.whole_grid, dense(step) == Some(true), "step {step}");
         }
-        let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
-        let bodies: Vec<u64> = c
-            .bodies()
-            .iter()
-            .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
-            .collect();
+        let (pops, bodies) = state_bits(&c);
         (pops, bodies, c.band_nodes())
     };
     let sparse = run(&|_| Some(false));
@@ -304,12 +310,7 @@ fn dense_bed_builds_no_band_and_agrees_bitwise() {
             c.step().unwrap();
             whole &= c.band_prev.whole_grid;
         }
-        let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();
-        let bodies: Vec<u64> = c
-            .bodies()
-            .iter()
-            .flat_map(|b| b.position.iter().chain(b.velocity.iter()).map(|v| v.to_bits()).collect::<Vec<_>>())
-            .collect();
+        let (pops, bodies) = state_bits(&c);
         (pops, bodies, whole, c.band_nodes())
     };
     let (chosen, band) = (run(None), run(Some(false)));

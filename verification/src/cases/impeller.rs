@@ -337,24 +337,22 @@ pub fn run(tier: Tier) -> CaseOutput {
         if po.len() == 3 {
             // Grid spacing in units of the paper's: h = 1/s.
             let h = [1.0 / scales[0], 1.0 / scales[1], 1.0 / scales[2]];
-            let mut o = Table::new(
-                format!("{kind} Po_f observed order (h = 1/s)"),
-                &[("order", true), ("richardson_po_fluid", true), ("finest_minus_limit_rel", true)],
-            );
             match crate::fit::richardson3(h, [po[0], po[1], po[2]]) {
                 Some((p, limit)) => {
                     let rel = (po[2] - limit) / limit;
                     eprintln!(
                         "  {kind}: Po_f observed order {p:.2}, Richardson limit {limit:.4} (s = 1/2 is {rel:+.3} off it)"
                     );
+                    let mut o = Table::new(
+                        format!("{kind} Po_f observed order (h = 1/s)"),
+                        &[("order", true), ("richardson_po_fluid", true), ("finest_minus_limit_rel", true)],
+                    );
                     o.push(vec![p, limit, rel]);
+                    out.tables.push(o);
                 }
                 None => {
                     eprintln!("  {kind}: Po_f is not monotone over the three scales: no order (no table)")
                 }
-            }
-            if !o.column("order").is_empty() {
-                out.tables.push(o);
             }
         }
     }
