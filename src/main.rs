@@ -127,6 +127,13 @@ struct BenchArgs {
     /// library's, 0.3). The loads do not depend on it, only the cost.
     #[arg(long)]
     skin: Option<f64>,
+    /// With --coupled: contact sub-steps per fluid step, 1 … 1024 (default: the case's, 8).
+    #[arg(long)]
+    contact_substeps: Option<usize>,
+    /// With --coupled: turn the lubrication limiter on (`[contacts] lubrication_limiter`), so
+    /// that fewer sub-steps stay stable.
+    #[arg(long)]
+    lubrication_limiter: bool,
 }
 
 /// `slurry bench --coupled`: the paper's cases at each scale, one thread count (the first of
@@ -151,6 +158,18 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
             return Err(BadInput(format!("--skin {skin} is out of range: it must be in [0, 2]")).into());
         }
     }
+    if let Some(n) = a.contact_substeps {
+        if !(1..=1024).contains(&n) {
+            return Err(
+                BadInput(format!("--contact-substeps {n} is out of range: it must be in [1, 1024]")).into()
+            );
+        }
+    }
+    let contact = slurry::reproduce::bench::ContactOptions {
+        skin: a.skin,
+        substeps: a.contact_substeps,
+        limiter: a.lubrication_limiter,
+    };
     let threads = a.threads.iter().copied().max().unwrap_or(2);
     let pool = thread_pool(NonZeroUsize::new(threads))?;
     let cache = PathBuf::from("target").join("reproduce").join("cache");
@@ -178,7 +197,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     );
     for &s in &a.scales {
         for name in &cases {
-            let r = pool.install(|| bench_case(name, s, &cache, a.warmup, a.steps, a.skin, false))?;
+            let r = pool.install(|| bench_case(name, s, &cache, a.warmup, a.steps, contact, false))?;
             println!(
                 "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
                 r.case,

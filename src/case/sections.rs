@@ -88,6 +88,10 @@ pub struct ContactsSection {
     /// Lubrication forces on (default true).
     #[serde(default = "contact_defaults::on")]
     pub lubrication: bool,
+    /// Limited (implicit-stable) lubrication in the sub-steps (default false;
+    /// `ContactParams::lubrication_limiter`).
+    #[serde(default)]
+    pub lubrication_limiter: bool,
     /// Contact sub-steps per fluid step (1 … 1024; default `contact::DEFAULT_SUBSTEPS`).
     #[serde(default = "contact_defaults::substeps")]
     pub substeps: usize,
@@ -138,6 +142,7 @@ impl ContactsSection {
             k_t: self.k_t,
             elastic: self.elastic,
             lubrication: self.lubrication,
+            lubrication_limiter: self.lubrication_limiter,
         }
     }
 }

@@ -16,7 +16,7 @@ use super::force::Pose;
 use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
 use super::params::{ContactParamError, ContactParams, Walls};
 use super::patches::Patches;
-use super::slots::{accumulate, stiffness_rates, ContactLoad, ContactStats, Slot};
+use super::slots::{accumulate, inverse_masses, stiffness_rates, ContactLoad, ContactStats, Slot};
 
 /// Body pairs (or bodies, for the walls) per parallel task of an evaluation.
 const EVAL_CHUNK: usize = 32;
@@ -48,6 +48,10 @@ pub struct Contacts {
     pub(crate) loads: Vec<ContactLoad>,
     /// Per body `(Σ c, Σ k w)` of the last evaluation ([`ContactStats::damping_rate`]).
     stiffness: Vec<[f64; 2]>,
+    /// Per body `(1/m, 1/I_min)` (zero for non-free bodies) and its damping mobility sum `ρ`
+    /// (module `slots`, `accumulate`).
+    inverse_mass: Vec<[f64; 2]>,
+    mobility: Vec<f64>,
     wall_reaction: Vec3,
     stats: ContactStats,
     scratch: Vec<Mutex<Scratch>>,
@@ -111,6 +115,8 @@ impl Contacts {
             wall_slots: Vec::with_capacity(n),
             loads: vec![ContactLoad::ZERO; n],
             stiffness: vec![[0.0; 2]; n],
+            inverse_mass: Vec::with_capacity(n),
+            mobility: Vec::with_capacity(n),
             wall_reaction: Vec3::zeros(),
             stats: ContactStats::default(),
             scratch: Vec::new(),
@@ -207,15 +213,22 @@ impl Contacts {
         self.check(bodies, markers);
         self.poses.clear();
         self.poses.extend(bodies.iter().map(Pose::of));
-        self.evaluate(bodies, markers);
+        self.evaluate(bodies, markers, 0.0);
         &self.loads
     }
 
     /// Evaluates the contacts at `self.poses`: rebuilds the marker-pair list if a body has
     /// moved by more than half its skin since the last build (module `list`), places the
     /// listed markers, then the loads of every listed body pair and of the walls (in parallel),
-    /// accumulated in a fixed order.
-    pub(crate) fn evaluate<M: AsRef<[Marker]> + Sync>(&mut self, bodies: &[RigidBody], markers: &[M]) {
+    /// accumulated in a fixed order. `h`: the length of the sub-step the loads are for, with
+    /// which the lubrication is limited (module [`super`], "Lubrication limiter"); 0 for the
+    /// explicit law.
+    pub(crate) fn evaluate<M: AsRef<[Marker]> + Sync>(
+        &mut self,
+        bodies: &[RigidBody],
+        markers: &[M],
+        h: f64,
+    ) {
         self.stats = ContactStats::default();
         self.loads.resize(bodies.len(), ContactLoad::ZERO);
         if self.reach <= 0.0 {
@@ -299,6 +312,7 @@ impl Contacts {
             });
         }
         self.stiffness.resize(n, [0.0; 2]);
+        inverse_masses(bodies, &mut self.inverse_mass);
         self.wall_reaction = accumulate(
             self.list.pairs(),
             &self.slots,
@@ -306,6 +320,9 @@ impl Contacts {
             &mut self.loads,
             &mut self.stiffness,
             &mut self.stats,
+            h,
+            &self.inverse_mass,
+            &mut self.mobility,
         );
         stiffness_rates(bodies, &self.stiffness, &mut self.stats);
     }

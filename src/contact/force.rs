@@ -15,16 +15,38 @@ pub(crate) struct Pose {
     pub velocity: Vec3,
     pub angular_velocity: Vec3,
     pub free: bool,
+    /// `1/√I_k` of the principal moments of a free body, zero for a fixed or prescribed one
+    /// (infinitely heavy): the rotational mobility of a lever `r` and direction `n̂` is
+    /// `|diag(1/√I) Rᵀ (r × n̂)|²` (the lubrication limiter's bound, module `slots`).
+    pub inv_sqrt_moments: Vec3,
 }
 
 impl Pose {
     /// The body's current state.
     pub fn of(b: &RigidBody) -> Self {
-        Self::new(b.position, &b.orientation, b.velocity, b.angular_velocity, b.is_free())
+        Self::new(b.position, &b.orientation, b.velocity, b.angular_velocity, b)
     }
 
-    pub fn new(position: Vec3, q: &Quat, velocity: Vec3, angular_velocity: Vec3, free: bool) -> Self {
-        Self { position, rotation: q.to_rotation_matrix().into_inner(), velocity, angular_velocity, free }
+    fn new(position: Vec3, q: &Quat, velocity: Vec3, angular_velocity: Vec3, b: &RigidBody) -> Self {
+        let free = b.is_free();
+        let inv_sqrt_moments =
+            if free { b.mass_properties().principal_moments.map(|i| 1.0 / i.sqrt()) } else { Vec3::zeros() };
+        Self {
+            position,
+            rotation: q.to_rotation_matrix().into_inner(),
+            velocity,
+            angular_velocity,
+            free,
+            inv_sqrt_moments,
+        }
+    }
+
+    /// The rotational mobility `(r × n̂)ᵀ I⁻¹ (r × n̂)` of a lever `r` in direction `n̂` (world
+    /// frame): the angular response at the marker, along `n̂`, to a unit impulse there.
+    #[inline(always)]
+    pub fn rotational_mobility(&self, r: &Vec3, nhat: &Vec3) -> f64 {
+        let t = self.rotation.tr_mul(&r.cross(nhat).into());
+        t.component_mul(&self.inv_sqrt_moments).norm_squared()
     }
 
     /// The state at `time + h` predicted from the body's current state: free bodies drift with
@@ -37,12 +59,12 @@ impl Pose {
                 &(crate::rigid::integrate::rotation_quaternion(&(b.angular_velocity * h)) * b.orientation),
                 b.velocity,
                 b.angular_velocity,
-                true,
+                b,
             ),
             Motion::Prescribed(m) => {
                 let (dx, dq) = m.displacement(b.time, h);
                 let t = b.time + h;
-                Self::new(b.position + dx, &(dq * b.orientation), m.velocity(t), m.angular_velocity(t), false)
+                Self::new(b.position + dx, &(dq * b.orientation), m.velocity(t), m.angular_velocity(t), b)
             }
             Motion::Fixed => Self::of(b),
         }
@@ -104,21 +126,34 @@ pub(crate) fn pair_force(p: &ContactParams, i: &WorldMarker, j: &WorldMarker) ->
     law(p, &nhat, delta, w, &(j.u - i.u))
 }
 
-/// An interacting marker pair (or marker and wall): the force on the marker, `δ`, `w`, and
-/// the pair's normal damping coefficient `kⁿ (1/δ* − 1/δ_d) w` (0 beyond `δ_d` or with the
-/// lubrication off) and spring constant `k w` (0 beyond `δ0` or with the elastic part off):
-/// `−∂F·n̂/∂(Δu·n̂)` and `−∂F·n̂/∂δ` at fixed `n̂` and `w`, what the sub-step's stability
-/// depends on ([`super::ContactStats::damping_rate`]), formed from the law's own factors.
+/// An interacting marker pair (or marker and wall): the force on the marker in its two parts,
+/// the elastic `elastic` and the lubrication `lub` (summed apart: the lubrication limiter
+/// scales the second per body pair, module [`super`], "Lubrication limiter"), the contact
+/// normal `n̂`, `δ`, `w`, and the pair's normal and tangential damping coefficients
+/// `kⁿ (1/δ* − 1/δ_d) w`, `kᵗ (1/δ* − 1/δ_d) w` (0 beyond `δ_d` or with the lubrication off)
+/// and spring constant `k w` (0 beyond `δ0` or with the elastic part off):
+/// `−∂F·n̂/∂(Δu·n̂)`, `−∂F·t̂/∂(Δu·t̂)` and `−∂F·n̂/∂δ` at fixed `n̂` and `w`, what the
+/// sub-step's stability depends on ([`super::ContactStats::damping_rate`]), formed from the
+/// law's own factors.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Hit {
-    pub force: Vec3,
+    pub elastic: Vec3,
+    pub lub: Vec3,
+    pub normal: Vec3,
     pub delta: f64,
     pub w: f64,
     pub damping: f64,
+    pub damping_t: f64,
     pub spring: f64,
 }
 
 impl Hit {
+    /// The whole force on the marker, `elastic + lub`.
+    #[cfg(test)]
+    pub fn force(&self) -> Vec3 {
+        self.elastic + self.lub
+    }
+
     /// The pair's elastic energy `½ k (δ0 − δ)² w` (0 if the elastic part is off or `δ ≥ δ0`),
     /// a diagnostic: the elastic force is not its exact gradient (`w` and `n̂` vary too).
     #[inline(always)]
@@ -171,9 +206,18 @@ fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<
     if !elastic && !lub {
         return None;
     }
-    let mut h = Hit { force: Vec3::zeros(), delta, w, damping: 0.0, spring: 0.0 };
+    let mut h = Hit {
+        elastic: Vec3::zeros(),
+        lub: Vec3::zeros(),
+        normal: *nhat,
+        delta,
+        w,
+        damping: 0.0,
+        damping_t: 0.0,
+        spring: 0.0,
+    };
     if elastic {
-        h.force -= nhat * (p.k * (p.delta0 - delta) * w);
+        h.elastic = -(nhat * (p.k * (p.delta0 - delta) * w));
         h.spring = p.k * w;
     }
     if lub {
@@ -181,8 +225,9 @@ fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<
         let dun = nhat * du.dot(nhat);
         let dut = du - dun;
         let g = (1.0 / ds - 1.0 / p.delta_d) * w;
-        h.force += (dun * p.k_n + dut * p.k_t) * g;
+        h.lub = (dun * p.k_n + dut * p.k_t) * g;
         h.damping = p.k_n * g;
+        h.damping_t = p.k_t * g;
     }
     Some(h)
 }
@@ -208,14 +253,14 @@ mod tests {
         let i = wm([0.0; 3], [1.0, 0.0, 0.0], [0.0; 3]);
         let j = wm([0.3, 0.0, 0.0], [-1.0, 0.0, 0.0], [-0.01, 0.0, 0.0]);
         let h = pair_force(&p, &i, &j).unwrap();
-        let f = h.force;
+        let f = h.force();
         assert!((h.delta - 0.3).abs() < 1e-15 && h.w == 1.0);
         // Elastic −k(δ0 − δ) = −1; lubrication kⁿ Δu (1/0.3 − 1) = 5 · (−0.01) · 2.333.
         let expect = -1.0 + 5.0 * -0.01 * (1.0 / 0.3 - 1.0);
         assert!((f.x - expect).abs() < 1e-14, "{f:?}");
         assert_eq!((f.y, f.z), (0.0, 0.0));
         // Newton's third law by symmetry of the formula.
-        let g = pair_force(&p, &j, &i).unwrap().force;
+        let g = pair_force(&p, &j, &i).unwrap().force();
         assert!((f + g).norm() < 1e-15);
     }
 
@@ -225,7 +270,7 @@ mod tests {
         let i = wm([0.0; 3], [0.0, 0.0, 1.0], [0.0; 3]);
         // Tangential slip only, δ = 0.1 < δ_sat: coefficient kᵗ (1/0.2 − 1) w with δ_λ = 0.25.
         let j = wm([0.25, 0.0, 0.1], [0.0, 0.0, -1.0], [0.0, 0.02, 0.0]);
-        let f = pair_force(&p, &i, &j).unwrap().force;
+        let f = pair_force(&p, &i, &j).unwrap().force();
         assert!((f.y - 0.5 * 0.02 * 4.0 * 0.5).abs() < 1e-15, "{f:?}");
         // Beyond λ, beyond δ_d, same-side normals: nothing.
         assert!(pair_force(&p, &i, &wm([0.5, 0.0, 0.1], [0.0, 0.0, -1.0], [0.0; 3])).is_none());
@@ -239,7 +284,7 @@ mod tests {
         let nhat = Vec3::new(0.0, 0.0, -1.0); // the floor
         let x = Vec3::new(3.0, 4.0, -0.5 + 0.25);
         let h = wall_force(&p, 2, -0.5, &nhat, &x, &Vec3::new(0.0, 0.0, -1.0), &Vec3::zeros()).unwrap();
-        let f = h.force;
+        let f = h.force();
         assert!((h.delta - 0.25).abs() < 1e-15);
         assert!((f.z - 5.0 * 0.25).abs() < 1e-14 && f.x == 0.0);
         // A marker whose normal points away from the wall does not feel it.

@@ -724,7 +724,7 @@ impl PairList {
             for &[i, j] in &within[..n] {
                 let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
                 if let Some(h) = pair_force(p, mi, mj) {
-                    slot.add_pair(&h, p, &mi.r, &mj.r);
+                    slot.add_pair(&h, p, &mi.r, &mj.r, pa, pb);
                 }
             }
         }
@@ -757,7 +757,7 @@ impl PairList {
                 continue;
             }
             if let Some(h) = wall_force(p, *axis, *plane, nhat, &m.x, &m.n, &m.u) {
-                slot.add_wall(&h, p, &m.r);
+                slot.add_wall(&h, p, &m.r, pose);
             }
         }
         slot

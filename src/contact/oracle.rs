@@ -18,7 +18,7 @@ use crate::rigid::{Marker, RigidBody, Vec3};
 
 use super::force::{pair_force, wall_force, Pose, WorldMarker};
 use super::params::{ContactParams, Walls};
-use super::slots::{accumulate, stiffness_rates, ContactLoad, ContactStats, Slot};
+use super::slots::{accumulate, inverse_masses, stiffness_rates, ContactLoad, ContactStats, Slot};
 
 /// What the oracle computed.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,7 +74,7 @@ pub fn brute_force<M: AsRef<[Marker]>>(
                     for mj in &world[b] {
                         if (mj.x - mi.x).norm_squared() < reach2 {
                             if let Some(h) = pair_force(params, mi, mj) {
-                                slot.add_pair(&h, params, &mi.r, &mj.r);
+                                slot.add_pair(&h, params, &mi.r, &mj.r, &poses[a], &poses[b]);
                             }
                         }
                     }
@@ -94,7 +94,7 @@ pub fn brute_force<M: AsRef<[Marker]>>(
             for m in &world[b] {
                 for &(axis, _, plane, nhat) in &wall_list {
                     if let Some(h) = wall_force(params, axis, plane, &nhat, &m.x, &m.n, &m.u) {
-                        wall_slots[b].add_wall(&h, params, &m.r);
+                        wall_slots[b].add_wall(&h, params, &m.r, &poses[b]);
                     }
                 }
             }
@@ -103,7 +103,19 @@ pub fn brute_force<M: AsRef<[Marker]>>(
     let mut loads = vec![ContactLoad::ZERO; n];
     let mut stats = ContactStats { candidate_pairs: pairs.len(), ..Default::default() };
     let mut stiffness = vec![[0.0; 2]; n];
-    let wall_reaction = accumulate(&pairs, &slots, &wall_slots, &mut loads, &mut stiffness, &mut stats);
+    let mut inverse_mass = Vec::new();
+    inverse_masses(bodies, &mut inverse_mass);
+    let wall_reaction = accumulate(
+        &pairs,
+        &slots,
+        &wall_slots,
+        &mut loads,
+        &mut stiffness,
+        &mut stats,
+        0.0,
+        &inverse_mass,
+        &mut Vec::new(),
+    );
     stiffness_rates(bodies, &stiffness, &mut stats);
     OracleResult { loads, wall_reaction, stats }
 }

@@ -33,6 +33,11 @@ pub struct ContactParams {
     pub elastic: bool,
     /// Whether the lubrication forces act (default `true`).
     pub lubrication: bool,
+    /// Whether the sub-cycling limits the lubrication to its stable range (default `false`; module
+    /// [`super`], "Lubrication limiter"): each body pair's lubrication load in a sub-step of
+    /// `h` is multiplied by `min(1, 0.9/(h (ρ_a + ρ_b)))`, `ρ` a bound of each body's damping
+    /// rate. `false`: the explicit law, which needs `h · damping_rate < 2`.
+    pub lubrication_limiter: bool,
 }
 
 impl Default for ContactParams {
@@ -48,6 +53,7 @@ impl Default for ContactParams {
             k_t: 0.5,
             elastic: true,
             lubrication: true,
+            lubrication_limiter: false,
         }
     }
 }

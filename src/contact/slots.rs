@@ -8,7 +8,7 @@
 
 use crate::rigid::{RigidBody, Vec3};
 
-use super::force::Hit;
+use super::force::{Hit, Pose};
 use super::params::ContactParams;
 
 /// Force and torque (world frame; torque about the body's centre of mass).
@@ -70,13 +70,27 @@ impl Default for ContactStats {
     }
 }
 
-/// The loads of one body pair (or of one body against the walls), summed in a fixed order.
+/// The loads of one body pair (or of one body against the walls), summed in a fixed order:
+/// the elastic and the lubrication parts apart (the second is scaled per body pair by
+/// [`accumulate`]), and the pair's damping moments that the scaling is formed from.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Slot {
+    /// Elastic force and torque on body a, on body b.
     pub fa: Vec3,
     pub ta: Vec3,
     pub fb: Vec3,
     pub tb: Vec3,
+    /// Lubrication force and torque on body a, on body b.
+    pub la: Vec3,
+    pub lta: Vec3,
+    pub lb: Vec3,
+    pub ltb: Vec3,
+    /// `Σ (cⁿ + cᵗ)` over the interacting pairs: the translational part of either body's
+    /// damping mobility sum ([`accumulate`]).
+    pub mob: f64,
+    /// `Σ cⁿ |r × n̂|² + cᵗ |r|²` with body a's lever arms, with body b's: the rotational part.
+    pub mob_a: f64,
+    pub mob_b: f64,
     pub count: u32,
     pub min_delta: f64,
     pub energy: f64,
@@ -92,6 +106,13 @@ impl Slot {
         ta: Vec3::new(0.0, 0.0, 0.0),
         fb: Vec3::new(0.0, 0.0, 0.0),
         tb: Vec3::new(0.0, 0.0, 0.0),
+        la: Vec3::new(0.0, 0.0, 0.0),
+        lta: Vec3::new(0.0, 0.0, 0.0),
+        lb: Vec3::new(0.0, 0.0, 0.0),
+        ltb: Vec3::new(0.0, 0.0, 0.0),
+        mob: 0.0,
+        mob_a: 0.0,
+        mob_b: 0.0,
         count: 0,
         min_delta: f64::INFINITY,
         energy: 0.0,
@@ -99,24 +120,50 @@ impl Slot {
         spring: 0.0,
     };
 
-    /// Adds the force `h.force` on marker `i` (lever arm `ri`) of body a and its opposite on
+    /// Adds the force of `h` on marker `i` (lever arm `ri`) of body a and its opposite on
     /// marker `j` (lever arm `rj`) of body b. The oracle adds in the same order with the same
     /// operations.
     #[inline(always)]
-    pub fn add_pair(&mut self, h: &Hit, p: &ContactParams, ri: &Vec3, rj: &Vec3) {
-        let f = &h.force;
-        self.fa += f;
-        self.ta += ri.cross(f);
-        self.fb -= f;
-        self.tb += rj.cross(&(-f));
+    pub fn add_pair(&mut self, h: &Hit, p: &ContactParams, ri: &Vec3, rj: &Vec3, pa: &Pose, pb: &Pose) {
+        if p.lubrication_limiter && h.damping > 0.0 {
+            let (e, l) = (&h.elastic, &h.lub);
+            self.fa += e;
+            self.ta += ri.cross(e);
+            self.fb -= e;
+            self.tb += rj.cross(&(-e));
+            self.la += l;
+            self.lta += ri.cross(l);
+            self.lb -= l;
+            self.ltb += rj.cross(&(-l));
+            self.mob += h.damping + h.damping_t;
+            self.mob_a += rotational_mobility(h, ri, pa);
+            self.mob_b += rotational_mobility(h, rj, pb);
+        } else {
+            // The explicit law: one force per pair, in the elastic sums.
+            let f = &(h.elastic + h.lub);
+            self.fa += f;
+            self.ta += ri.cross(f);
+            self.fb -= f;
+            self.tb += rj.cross(&(-f));
+        }
         self.tally(h, p);
     }
 
-    /// Adds the force `h.force` of a wall on a marker with lever arm `r` (body a only).
+    /// Adds the force of a wall on a marker with lever arm `r` (body a only).
     #[inline(always)]
-    pub fn add_wall(&mut self, h: &Hit, p: &ContactParams, r: &Vec3) {
-        self.fa += h.force;
-        self.ta += r.cross(&h.force);
+    pub fn add_wall(&mut self, h: &Hit, p: &ContactParams, r: &Vec3, pose: &Pose) {
+        if p.lubrication_limiter && h.damping > 0.0 {
+            self.fa += h.elastic;
+            self.ta += r.cross(&h.elastic);
+            self.la += h.lub;
+            self.lta += r.cross(&h.lub);
+            self.mob += h.damping + h.damping_t;
+            self.mob_a += rotational_mobility(h, r, pose);
+        } else {
+            let f = h.elastic + h.lub;
+            self.fa += f;
+            self.ta += r.cross(&f);
+        }
         self.tally(h, p);
     }
 
@@ -131,11 +178,33 @@ impl Slot {
     }
 }
 
+/// `cⁿ (r × n̂)ᵀ I⁻¹ (r × n̂) + cᵗ |r|² max_k(1/I_k)`: the pair's damping times the rotational
+/// mobility of its normal direction and a bound of its tangential ones, the rotational part of
+/// the body's damping-rate bound.
+#[inline(always)]
+fn rotational_mobility(h: &Hit, r: &Vec3, pose: &Pose) -> f64 {
+    let m = &pose.inv_sqrt_moments;
+    let tangential = m.x.max(m.y).max(m.z);
+    h.damping * pose.rotational_mobility(r, &h.normal)
+        + h.damping_t * r.norm_squared() * tangential * tangential
+}
+
 /// Serial accumulation shared by the fast path and the oracle: pair slots in pair order
 /// (skipping slots without contacts), then wall slots in body order.
 ///
 /// `stiffness[b]` receives body `b`'s `(Σ c, Σ k w)` over its interacting pairs and wall
 /// contacts ([`ContactStats::damping_rate`]).
+///
+/// **Lubrication limiter** (module [`super`]; slots filled with
+/// [`ContactParams::lubrication_limiter`] on). With `h > 0` (a sub-step of length `h`), the
+/// lubrication load of body pair `(a, b)` is multiplied by `min(1, IMPLICIT_LIMIT/(h (ρ_a +
+/// ρ_b)))`, of a body against the walls by `min(1, IMPLICIT_LIMIT/(h ρ_b))`, where for a free
+/// body `ρ_b = Σ (cⁿ + cᵗ)/m_b + Σ cⁿ (r × n̂)ᵀ I⁻¹ (r × n̂) + cᵗ |r|²/I_min` over all its
+/// lubricated pairs and wall contacts (a bound of its damping rate, translation and rotation)
+/// and `ρ = 0` for a fixed or prescribed one (infinitely heavy). `h = 0` is the explicit law
+/// (factor 1). `inverse_mass[b] = (1/m_b, 1)`, zero for non-free bodies; `mobility` is a
+/// buffer.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn accumulate(
     pairs: &[(u32, u32)],
     slots: &[Slot],
@@ -143,19 +212,42 @@ pub(crate) fn accumulate(
     loads: &mut [ContactLoad],
     stiffness: &mut [[f64; 2]],
     stats: &mut ContactStats,
+    h: f64,
+    inverse_mass: &[[f64; 2]],
+    mobility: &mut Vec<f64>,
 ) -> Vec3 {
     loads.fill(ContactLoad::ZERO);
     stiffness.fill([0.0; 2]);
+    mobility.clear();
+    mobility.resize(loads.len(), 0.0);
+    if h > 0.0 {
+        let mut add = |b: usize, mob: f64, rot: f64| {
+            let [im, ii] = inverse_mass[b];
+            mobility[b] += mob * im + rot * ii;
+        };
+        for (&(a, b), s) in pairs.iter().zip(slots) {
+            if s.mob > 0.0 {
+                add(a as usize, s.mob, s.mob_a);
+                add(b as usize, s.mob, s.mob_b);
+            }
+        }
+        for (b, s) in wall_slots.iter().enumerate() {
+            if s.mob > 0.0 {
+                add(b, s.mob, s.mob_a);
+            }
+        }
+    }
     let mut reaction = Vec3::zeros();
     for (&(a, b), s) in pairs.iter().zip(slots) {
         if s.count == 0 {
             continue;
         }
         let (a, b) = (a as usize, b as usize);
-        loads[a].force += s.fa;
-        loads[a].torque += s.ta;
-        loads[b].force += s.fb;
-        loads[b].torque += s.tb;
+        let scale = limiter(h * (mobility[a] + mobility[b]));
+        loads[a].force += s.fa + s.la * scale;
+        loads[a].torque += s.ta + s.lta * scale;
+        loads[b].force += s.fb + s.lb * scale;
+        loads[b].torque += s.tb + s.ltb * scale;
         for body in [a, b] {
             stiffness[body][0] += s.damping;
             stiffness[body][1] += s.spring;
@@ -169,16 +261,44 @@ pub(crate) fn accumulate(
         if s.count == 0 {
             continue;
         }
-        loads[b].force += s.fa;
-        loads[b].torque += s.ta;
+        let scale = limiter(h * mobility[b]);
+        let force = s.fa + s.la * scale;
+        loads[b].force += force;
+        loads[b].torque += s.ta + s.lta * scale;
         stiffness[b][0] += s.damping;
         stiffness[b][1] += s.spring;
-        reaction -= s.fa;
+        reaction -= force;
         stats.wall_contacts += s.count as usize;
         stats.min_delta = stats.min_delta.min(s.min_delta);
         stats.elastic_energy += s.energy;
     }
     reaction
+}
+
+/// The lubrication's scale factor for a body pair whose summed damping-rate bound over a
+/// sub-step is `x = h (ρ_a + ρ_b)`: 1 (the explicit law) while `x ≤ IMPLICIT_LIMIT`, else
+/// `IMPLICIT_LIMIT / x`.
+#[inline(always)]
+fn limiter(x: f64) -> f64 {
+    if x > IMPLICIT_LIMIT {
+        IMPLICIT_LIMIT / x
+    } else {
+        1.0
+    }
+}
+
+/// The largest damping-rate bound per sub-step, `h (ρ_a + ρ_b)`, that a body pair's
+/// lubrication is given (module [`super`], "Lubrication limiter"): below 1, so that an
+/// isolated pair's relative velocity is never reversed, and Gershgorin's bound of the whole
+/// system, `2 · IMPLICIT_LIMIT`, stays below the stability limit 2.
+pub(crate) const IMPLICIT_LIMIT: f64 = 0.9;
+
+/// Per body `(1/m, 1)` for a free body, `(0, 0)` for a fixed or prescribed one: the weights of
+/// the translational and the (already inertia-weighted) rotational sums in [`accumulate`]'s
+/// lubrication limiter.
+pub(crate) fn inverse_masses(bodies: &[RigidBody], out: &mut Vec<[f64; 2]>) {
+    out.clear();
+    out.extend(bodies.iter().map(|b| if b.is_free() { [1.0 / b.mass(), 1.0] } else { [0.0; 2] }));
 }
 
 /// [`ContactStats::damping_rate`] and [`ContactStats::spring_rate`] from the per-body sums.

@@ -65,7 +65,9 @@ impl Contacts {
     ///   prescribed body's at the mid-sub-step time. With `RigidBody::step`'s update
     ///   `v' = v + h F/m`, `x' = x + h (v + v')/2` this is the position-Verlet
     ///   (drift–kick–drift) scheme for the elastic force (symplectic: no energy drift through
-    ///   an elastic contact) and explicit Euler for the damping.
+    ///   an elastic contact) and explicit Euler for the damping, limited to its stable range
+    ///   when [`ContactParams::lubrication_limiter`](super::ContactParams) is on (module
+    ///   [`super`], "Lubrication limiter").
     ///
     /// Each free body is stepped with [`LoadScheme::Constant`] semantics (its scheme is
     /// restored afterwards): the Adams–Bashforth extrapolation of the sub-step loads would
@@ -119,7 +121,8 @@ impl Contacts {
         for k in 0..n_sub {
             self.poses.clear();
             self.poses.extend(bodies.iter().map(|b| Pose::predicted(b, 0.5 * h)));
-            self.evaluate(bodies, markers);
+            let limited = if self.params().lubrication_limiter { h } else { 0.0 };
+            self.evaluate(bodies, markers, limited);
             let s = (k as f64 + 0.5) * h;
             for (i, b) in bodies.iter_mut().enumerate() {
                 let c = self.loads[i];

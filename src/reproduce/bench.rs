@@ -79,6 +79,22 @@ pub struct CoupledBench {
     pub max_damping_rate: f64,
     /// The largest `ContactStats::spring_rate` seen at the end of a timed step.
     pub max_spring_rate: f64,
+    /// Contact sub-steps per fluid step.
+    pub contact_substeps: usize,
+    /// Whether the lubrication limiter was on.
+    pub lubrication_limiter: bool,
+}
+
+/// Changes to the contacts of a benchmarked case (the bed is made as the case says).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ContactOptions {
+    /// The skin of the marker-pair list (default: the library's); the loads do not depend on
+    /// it, only the cost.
+    pub skin: Option<f64>,
+    /// Contact sub-steps per fluid step (default: the case's).
+    pub substeps: Option<usize>,
+    /// Turn the lubrication limiter on ([`crate::contact::ContactParams::lubrication_limiter`]).
+    pub limiter: bool,
 }
 
 /// Measures case `name` at scale `scale` (module docs).
@@ -92,7 +108,7 @@ pub fn bench_case(
     cache: &Path,
     warmup: u64,
     steps: u64,
-    skin: Option<f64>,
+    contact: ContactOptions,
     quiet: bool,
 ) -> anyhow::Result<CoupledBench> {
     let pc = super::paper_case(name)?;
@@ -120,9 +136,16 @@ pub fn bench_case(
 
     let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
     bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
-    let mut c = Coupled::new(new_fluid()?, bodies, case.coupling_params())
-        .map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
-    if let Some(skin) = skin {
+    let mut params = case.coupling_params();
+    if let Some(n) = contact.substeps {
+        params.contact_substeps = n;
+    }
+    if let Some(p) = params.contacts.as_mut() {
+        p.lubrication_limiter |= contact.limiter;
+    }
+    let mut c =
+        Coupled::new(new_fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
+    if let Some(skin) = contact.skin {
         c.set_contact_skin(skin);
     }
     for _ in 0..warmup {
@@ -174,5 +197,7 @@ pub fn bench_case(
         interacting_pairs: c.contacts().map_or(0, |k| k.stats().marker_pairs),
         max_damping_rate,
         max_spring_rate,
+        contact_substeps: params.contact_substeps,
+        lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
     })
 }
