@@ -562,8 +562,11 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
 
     /// The time series synced, `fields.h5` and `fields.xmf` of the last step, and the summary
     /// (also written as `summary.json`).
-    fn finish(self, stepped: &Stepped, start: Instant) -> anyhow::Result<RunSummary> {
+    fn finish(mut self, stepped: &Stepped, start: Instant) -> anyhow::Result<RunSummary> {
         self.timeseries.sync().with_context(|| format!("cannot sync {}", self.timeseries_path.display()))?;
+        if let Some(history) = self.history.as_mut() {
+            history.finish().with_context(|| format!("cannot merge {}", self.history_path.display()))?;
+        }
         let fluid = self.solver.fluid();
         let grid = self.case.grid();
         let (rho, u) = fluid.fields();

@@ -134,7 +134,9 @@ fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> an
         .with_context(|| format!("cannot write {}", bed_h5.display()))?;
     let frame = particle_frame(&c, inits.len());
     let bodies = c.bodies();
-    w.append(&frame).with_context(|| format!("cannot write {}", bed_h5.display()))?;
+    w.append(&frame)
+        .and_then(|()| w.finish())
+        .with_context(|| format!("cannot write {}", bed_h5.display()))?;
     let mut toml = format!(
         "# Settled bed from slurry settle: {} particles after {steps} steps, mean speed {speed:e} ({}).\n",
         bodies.len(),

@@ -12,7 +12,8 @@
 //! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`];
 //! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart);
 //! - [`particles`]: [`ParticleHistoryWriter`] (`particles.h5`: one frame per output step,
-//!   each append a copy of the file extended by the frame and renamed over it).
+//!   appended to segment files beside it, each rewritten atomically, and merged into
+//!   `particles.h5` at the end of the run).
 
 pub mod atomic;
 pub mod checkpoint;

@@ -28,20 +28,26 @@
 //! (1). The frame datasets are chunked one frame per chunk and extendable along the first
 //! axis.
 //!
-//! # Crash safety and cost
-//! The file on disk is always complete: [`ParticleHistoryWriter::create`] writes it with zero
-//! frames, and each [`ParticleHistoryWriter::append`] copies it to a temporary file beside it,
-//! extends the copy's datasets by one frame, closes and syncs the copy and renames it over the
-//! original ([`super::atomic_write`]). A crash at any moment leaves the file of the previous
-//! output step (a readable file with every frame up to it) and at worst a stale
-//! `.particles.h5.tmp.PID`.
+//! # Crash safety and cost: frame segments
+//! The files on disk are always complete. [`ParticleHistoryWriter::create`] writes
+//! `particles.h5` with the static data and zero frames. Frames are appended to **segments**
+//! beside it, `particles.frames/000000.h5`, `000001.h5`, … ([`SEGMENT_FRAMES`] frames each, the
+//! frame datasets and `time`, `step` of the layout above and a root attribute `particles`):
+//! each [`ParticleHistoryWriter::append`] rewrites only the last segment atomically (copy,
+//! extend by one frame, sync, rename: [`super::atomic_write`]). [`ParticleHistoryWriter::finish`]
+//! (at the end of a run) merges the segments into `particles.h5` the same way and then
+//! removes them. A crash at any moment leaves `particles.h5` and the segments of the previous
+//! output step, and at worst a stale `.NAME.tmp.PID`; a crash between the merge's rename and
+//! the removal leaves segments whose frames `particles.h5` already holds, which the readers
+//! and [`ParticleHistoryWriter::resume`] recognise by their steps and skip.
 //!
-//! The price is one copy of the file per output step: `O(F · P)` bytes, so `O(F² P)` over a
-//! run. A frame is `P × 19 × 8` bytes (about 250 kB for the paper's 1644 particles), so at
-//! 1000 frames the file is about 250 MB and an output step copies it once (a fraction of a second on a local disk; file systems with reflinks, such
-//! as XFS and Btrfs, copy without moving the data). Pick `run.output_every` so that the
-//! copying stays small beside the stepping between outputs; the paper's 800 000 steps at one
-//! frame every 1000 steps (800 frames) copy about 80 GB in all, minutes against days of stepping.
+//! The cost is linear in the run: an output step copies at most one segment, `SEGMENT_FRAMES`
+//! frames of `P × 19 × 8` bytes (32 × 250 kB = 8 MB for the paper's 1644 particles), and the
+//! merge copies the history once. (The earlier layout copied the whole file at every output
+//! step: `O(F²)` bytes, 250 GB for a 2000-frame run of 822 particles.)
+//!
+//! [`read_particle_history`] reads `particles.h5` and then the segments, so a run in progress
+//! or one stopped by an error reads like a finished one.
 //!
 //! # Reading
 //! [`read_particle_history`] reads a file back whole ([`ParticleHistory`]: the static data as
@@ -85,6 +91,80 @@ pub const FRAME_DATASETS: [(&str, usize, &str, &str); 6] = [
          zero at step 0",
     ),
 ];
+
+/// Frames per segment file (module docs, "Crash safety and cost").
+pub const SEGMENT_FRAMES: usize = 32;
+
+/// The segment directory of the history at `path`: `particles.h5` → `particles.frames/`.
+pub fn segment_dir(path: &Path) -> PathBuf {
+    path.with_extension("frames")
+}
+
+fn segment_path(dir: &Path, index: usize) -> PathBuf {
+    dir.join(format!("{index:06}.h5"))
+}
+
+/// The segment files in `dir`, in order (`NNNNNN.h5`; none if `dir` does not exist). They
+/// must be numbered `0, 1, …` without a gap.
+fn segments(dir: &Path) -> Result<Vec<PathBuf>, ParticlesError> {
+    let Ok(entries) = std::fs::read_dir(dir) else { return Ok(Vec::new()) };
+    let mut found: Vec<usize> = Vec::new();
+    for e in entries {
+        let name = e?.file_name();
+        let Some(stem) = name.to_str().and_then(|n| n.strip_suffix(".h5")) else { continue };
+        if stem.len() == 6 && stem.bytes().all(|b| b.is_ascii_digit()) {
+            found.push(stem.parse().expect("six digits"));
+        }
+    }
+    found.sort_unstable();
+    if let Some((i, &n)) = found.iter().enumerate().find(|&(i, &n)| i != n) {
+        return Err(ParticlesError::Malformed(format!(
+            "{}: segment {i:06}.h5 is missing (found {n:06}.h5)",
+            dir.display()
+        )));
+    }
+    Ok(found.iter().map(|&i| segment_path(dir, i)).collect())
+}
+
+/// Creates the extendable frame datasets (and `time`, `step`) with zero frames.
+fn create_frame_datasets(file: &hdf5::File, p: usize) -> hdf5::Result<()> {
+    let chunk_p = p.max(1);
+    for (name, k, units, description) in FRAME_DATASETS {
+        let d = file.new_dataset::<f64>().chunk((1, chunk_p, k)).shape((0.., p, k)).create(name)?;
+        describe(&d, units, description)?;
+    }
+    let d = file.new_dataset::<f64>().chunk((64,)).shape((0..,)).create("time")?;
+    describe(&d, "Δt", "time of the frame (equals step: Δt = 1)")?;
+    let d = file.new_dataset::<u64>().chunk((64,)).shape((0..,)).create("step")?;
+    describe(&d, "1", "time step of the frame")
+}
+
+/// Resizes the frame datasets of `file` to `frames` frames (cut or extend).
+fn resize_frames(file: &hdf5::File, frames: usize, p: usize) -> hdf5::Result<()> {
+    for (name, k, _, _) in FRAME_DATASETS {
+        file.dataset(name)?.resize((frames, p, k))?;
+    }
+    file.dataset("time")?.resize((frames,))?;
+    file.dataset("step")?.resize((frames,))
+}
+
+/// The steps of the frames in `file`.
+fn steps_of(file: &hdf5::File) -> hdf5::Result<Vec<u64>> {
+    file.dataset("step")?.read_raw::<u64>()
+}
+
+/// Copies `src`'s frames `from..` to `dst` at frame `at` (`dst` already resized).
+fn copy_frames(src: &hdf5::File, from: usize, dst: &hdf5::File, at: usize) -> hdf5::Result<()> {
+    let n = src.dataset("step")?.shape()[0] - from;
+    for (name, _, _, _) in FRAME_DATASETS {
+        let a = src.dataset(name)?.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![from.., .., ..])?;
+        dst.dataset(name)?.write_slice(&a, ndarray::s![at..at + n, .., ..])?;
+    }
+    let t = src.dataset("time")?.read_slice_1d::<f64, _>(from..)?;
+    dst.dataset("time")?.write_slice(&t, at..at + n)?;
+    let s = src.dataset("step")?.read_slice_1d::<u64, _>(from..)?;
+    dst.dataset("step")?.write_slice(&s, at..at + n)
+}
 
 /// What does not change over a run: one entry per particle.
 #[derive(Clone, Debug, PartialEq)]
@@ -195,7 +275,10 @@ fn describe(loc: &hdf5::Dataset, units: &str, description: &str) -> hdf5::Result
 pub struct ParticleHistoryWriter {
     path: PathBuf,
     particles: usize,
+    /// Frames written (in `particles.h5` and the segments).
     frames: usize,
+    /// Frames in `particles.h5` itself; the rest are in the segments.
+    merged: usize,
 }
 
 impl ParticleHistoryWriter {
@@ -225,15 +308,7 @@ impl ParticleHistoryWriter {
             file.new_attr::<f64>().shape([3]).create("gravity")?.write_raw(&gravity[..])?;
             file.new_attr::<f64>().shape(()).create("fluid_density")?.write_scalar(&1.0)?;
 
-            let chunk_p = p.max(1);
-            for (name, k, units, description) in FRAME_DATASETS {
-                let d = file.new_dataset::<f64>().chunk((1, chunk_p, k)).shape((0.., p, k)).create(name)?;
-                describe(&d, units, description)?;
-            }
-            let d = file.new_dataset::<f64>().chunk((64,)).shape((0..,)).create("time")?;
-            describe(&d, "Δt", "time of the frame (equals step: Δt = 1)")?;
-            let d = file.new_dataset::<u64>().chunk((64,)).shape((0..,)).create("step")?;
-            describe(&d, "1", "time step of the frame")?;
+            create_frame_datasets(&file, p)?;
 
             let f64s = |name: &str, v: Vec<f64>, units: &str, description: &str| -> hdf5::Result<()> {
                 let d = file.new_dataset::<f64>().shape([p]).create(name)?;
@@ -273,36 +348,67 @@ impl ParticleHistoryWriter {
             file.close()?;
             Ok(())
         })?;
-        Ok(Self { path: path.to_path_buf(), particles: p, frames: 0 })
+        // Segments of an earlier history at this path are not part of the new one.
+        remove_segments(path)?;
+        Ok(Self { path: path.to_path_buf(), particles: p, frames: 0, merged: 0 })
     }
 
     /// Opens an existing `path` to continue a resumed run at `step`: frames written after
     /// `step` (by the interrupted run, past its last checkpoint) are cut off, atomically (copy,
-    /// shrink, rename), so the file continues exactly as an uninterrupted run's would.
+    /// shrink, rename) in `particles.h5` or in the segment where they start (later segments are
+    /// removed), so the history continues exactly as an uninterrupted run's would.
     pub fn resume(path: &Path, step: u64) -> Result<Self, ParticlesError> {
-        let (keep, total, p) = {
+        let (steps, p) = {
             let file = hdf5::File::open(path)?;
-            let steps = file.dataset("step")?.read_raw::<u64>()?;
-            let p = file.attr("particles")?.read_scalar::<u64>()? as usize;
-            (steps.iter().take_while(|&&s| s <= step).count(), steps.len(), p)
+            (steps_of(&file)?, file.attr("particles")?.read_scalar::<u64>()? as usize)
         };
-        if keep < total {
-            atomic_write(path, |tmp| -> Result<(), ParticlesError> {
-                std::fs::copy(path, tmp)?;
-                let file = hdf5::File::open_rw(tmp)?;
-                for (name, k, _, _) in FRAME_DATASETS {
-                    file.dataset(name)?.resize((keep, p, k))?;
-                }
-                file.dataset("time")?.resize((keep,))?;
-                file.dataset("step")?.resize((keep,))?;
-                file.close()?;
-                Ok(())
-            })?;
+        let keep = steps.iter().take_while(|&&s| s <= step).count();
+        if keep < steps.len() {
+            cut(path, keep, p)?;
+            remove_segments(path)?;
+            return Ok(Self { path: path.to_path_buf(), particles: p, frames: keep, merged: keep });
         }
-        Ok(Self { path: path.to_path_buf(), particles: p, frames: keep })
+        let dir = segment_dir(path);
+        crate::io::remove_stale_temps(&dir);
+        let mut last = steps.last().copied();
+        let mut frames = keep;
+        let segs = segments(&dir)?;
+        for (i, seg) in segs.iter().enumerate() {
+            let seg_steps = steps_of(&hdf5::File::open(seg)?)?;
+            if i == 0 && seg_steps.first().zip(last).is_some_and(|(&first, last)| first <= last) {
+                // Merged into particles.h5 before a crash left them: stale.
+                remove_segments(path)?;
+                frames = keep;
+                break;
+            }
+            let k = seg_steps.iter().take_while(|&&s| s <= step).count();
+            if k == seg_steps.len() && k != SEGMENT_FRAMES && i + 1 < segs.len() {
+                return Err(ParticlesError::Malformed(format!(
+                    "{}: {k} frames, not {SEGMENT_FRAMES}, with later segments",
+                    seg.display()
+                )));
+            }
+            if k < seg_steps.len() || i + 1 == segs.len() {
+                // The last segment kept: cut to `k` frames (removed if none), the rest removed.
+                if k == 0 {
+                    std::fs::remove_file(seg)?;
+                } else if k < seg_steps.len() {
+                    cut(seg, k, p)?;
+                }
+                for later in &segs[i + 1..] {
+                    std::fs::remove_file(later)?;
+                }
+                frames += k;
+                break;
+            }
+            frames += k;
+            last = seg_steps.last().copied();
+        }
+        Ok(Self { path: path.to_path_buf(), particles: p, frames, merged: keep })
     }
 
-    /// Appends one frame (module docs: copy, extend, rename).
+    /// Appends one frame to the last segment (module docs: copy, extend, rename; a new
+    /// segment every [`SEGMENT_FRAMES`] frames).
     pub fn append(&mut self, frame: &ParticleFrame) -> Result<(), ParticlesError> {
         let p = self.particles;
         let arrays = frame.arrays();
@@ -311,28 +417,67 @@ impl ParticleHistoryWriter {
                 return Err(ParticlesError::Length { name, len: a.len() / k, want: p });
             }
         }
-        let f = self.frames;
-        let path = self.path.clone();
-        atomic_write(&path, |tmp| -> Result<(), ParticlesError> {
-            std::fs::copy(&path, tmp)?;
-            let file = hdf5::File::open_rw(tmp)?;
+        let local = self.frames - self.merged;
+        let (index, f) = (local / SEGMENT_FRAMES, local % SEGMENT_FRAMES);
+        let dir = segment_dir(&self.path);
+        std::fs::create_dir_all(&dir)?;
+        let seg = segment_path(&dir, index);
+        atomic_write(&seg, |tmp| -> Result<(), ParticlesError> {
+            let file = if f == 0 {
+                let file = hdf5::File::create(tmp)?;
+                file.new_attr::<u64>().shape(()).create("particles")?.write_scalar(&(p as u64))?;
+                create_frame_datasets(&file, p)?;
+                file
+            } else {
+                std::fs::copy(&seg, tmp)?;
+                hdf5::File::open_rw(tmp)?
+            };
+            resize_frames(&file, f + 1, p)?;
             for ((name, k, _, _), a) in FRAME_DATASETS.iter().zip(&arrays) {
-                let d = file.dataset(name)?;
-                d.resize((f + 1, p, *k))?;
                 let view = ndarray::ArrayView3::from_shape((1, p, *k), a)?;
-                d.write_slice(view, ndarray::s![f..f + 1, .., ..])?;
+                file.dataset(name)?.write_slice(view, ndarray::s![f..f + 1, .., ..])?;
             }
-            let d = file.dataset("time")?;
-            d.resize((f + 1,))?;
-            d.write_slice(&[frame.time][..], f..f + 1)?;
-            let d = file.dataset("step")?;
-            d.resize((f + 1,))?;
-            d.write_slice(&[frame.step][..], f..f + 1)?;
+            file.dataset("time")?.write_slice(&[frame.time][..], f..f + 1)?;
+            file.dataset("step")?.write_slice(&[frame.step][..], f..f + 1)?;
             file.close()?;
             Ok(())
         })?;
         self.frames += 1;
         Ok(())
+    }
+
+    /// Merges the segments into `particles.h5` (atomically: copy, extend, rename) and removes
+    /// them: one file holds the whole history. Called at the end of a run; appending may go on
+    /// after it.
+    pub fn finish(&mut self) -> Result<(), ParticlesError> {
+        if self.frames > self.merged {
+            let (p, merged, frames) = (self.particles, self.merged, self.frames);
+            let segs = segments(&segment_dir(&self.path))?;
+            let path = self.path.clone();
+            atomic_write(&path, |tmp| -> Result<(), ParticlesError> {
+                std::fs::copy(&path, tmp)?;
+                let file = hdf5::File::open_rw(tmp)?;
+                resize_frames(&file, frames, p)?;
+                let mut at = merged;
+                for seg in &segs {
+                    let src = hdf5::File::open(seg)?;
+                    copy_frames(&src, 0, &file, at)?;
+                    at += src.dataset("step")?.shape()[0];
+                }
+                if at != frames {
+                    return Err(ParticlesError::Malformed(format!(
+                        "{}: the segments hold {} frames, {} were written",
+                        segment_dir(&path).display(),
+                        at - merged,
+                        frames - merged
+                    )));
+                }
+                file.close()?;
+                Ok(())
+            })?;
+            self.merged = frames;
+        }
+        remove_segments(&self.path)
     }
 
     /// Frames written.
@@ -348,6 +493,25 @@ impl ParticleHistoryWriter {
     /// The file's path.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+}
+
+/// Cuts the history file (or segment) at `path` to its first `keep` frames, atomically.
+fn cut(path: &Path, keep: usize, p: usize) -> Result<(), ParticlesError> {
+    atomic_write(path, |tmp| -> Result<(), ParticlesError> {
+        std::fs::copy(path, tmp)?;
+        let file = hdf5::File::open_rw(tmp)?;
+        resize_frames(&file, keep, p)?;
+        file.close()?;
+        Ok(())
+    })
+}
+
+/// Removes the segment directory of the history at `path`, if there is one.
+fn remove_segments(path: &Path) -> Result<(), ParticlesError> {
+    match std::fs::remove_dir_all(segment_dir(path)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e.into()),
+        _ => Ok(()),
     }
 }
 
@@ -446,50 +610,85 @@ pub fn read_particle_history_from(
         })
         .collect();
 
+    // particles.h5's frames, then the segments' (module docs), skipping segment frames that
+    // particles.h5 already holds (a merge interrupted before it removed them).
+    let mut frames: Vec<ParticleFrame> = Vec::new();
+    let total_main = file.dataset("step")?.shape().first().copied().unwrap_or(0);
+    let mut last = read_frames(&file, p, first_frame, &mut frames, &malformed)?;
+    let mut total = total_main;
+    for seg in segments(&segment_dir(path))? {
+        let sf = hdf5::File::open(&seg)?;
+        let steps = steps_of(&sf)?;
+        let fresh = steps.iter().position(|&s| last.is_none_or(|l| s > l)).unwrap_or(steps.len());
+        let n = steps.len() - fresh;
+        // Global index of this segment's first fresh frame is `total`.
+        let skip = first_frame.saturating_sub(total).min(n);
+        let from = fresh + skip;
+        if from < steps.len() {
+            read_frames(&sf, p, from, &mut frames, &malformed)?;
+        }
+        if n > 0 {
+            last = steps.last().copied();
+        }
+        total += n;
+    }
+    let first = first_frame.min(total);
+    Ok(ParticleHistory { statics, frames, first_frame: first, frames_in_file: total, nx, ny, nz, gravity })
+}
+
+/// Appends the frames `first..` of `file` (particles.h5 or a segment, `p` particles) to
+/// `frames`; returns the step of `file`'s last frame.
+fn read_frames(
+    file: &hdf5::File,
+    p: usize,
+    first: usize,
+    frames: &mut Vec<ParticleFrame>,
+    malformed: &dyn Fn(String) -> ParticlesError,
+) -> Result<Option<u64>, ParticlesError> {
     let steps_d = file.dataset("step")?;
     let total = steps_d.shape().first().copied().unwrap_or(0);
-    let first = first_frame.min(total);
+    let last =
+        if total > 0 { steps_d.read_slice_1d::<u64, _>(total - 1..total)?.first().copied() } else { None };
+    let first = first.min(total);
     let count = total - first;
-    let mut frames: Vec<ParticleFrame> = Vec::with_capacity(count);
-    if count > 0 {
-        let steps = steps_d.read_slice_1d::<u64, _>(first..total)?;
-        let times = file.dataset("time")?.read_slice_1d::<f64, _>(first..total)?;
-        if times.len() != count {
-            return Err(malformed(format!("time has {} frames, step has {total}", times.len() + first)));
+    if count == 0 {
+        return Ok(last);
+    }
+    let start = frames.len();
+    let steps = steps_d.read_slice_1d::<u64, _>(first..total)?;
+    let times = file.dataset("time")?.read_slice_1d::<f64, _>(first..total)?;
+    if times.len() != count {
+        return Err(malformed(format!("time has {} frames, step has {total}", times.len() + first)));
+    }
+    for (&step, &time) in steps.iter().zip(times.iter()) {
+        frames.push(ParticleFrame { step, time, ..Default::default() });
+    }
+    for (name, k, _, _) in FRAME_DATASETS {
+        let d = file.dataset(name)?;
+        if d.shape() != [total, p, k] {
+            return Err(malformed(format!("{name} has shape {:?}, expected [{total}, {p}, {k}]", d.shape())));
         }
-        for (&step, &time) in steps.iter().zip(times.iter()) {
-            frames.push(ParticleFrame { step, time, ..Default::default() });
-        }
-        for (name, k, _, _) in FRAME_DATASETS {
-            let d = file.dataset(name)?;
-            if d.shape() != [total, p, k] {
-                return Err(malformed(format!(
-                    "{name} has shape {:?}, expected [{total}, {p}, {k}]",
-                    d.shape()
-                )));
-            }
-            let a = d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![first..total, .., ..])?;
-            for (frame, block) in frames.iter_mut().zip(a.outer_iter()) {
-                let rows = block.outer_iter();
-                match k {
-                    3 => {
-                        let v: Vec<[f64; 3]> = rows.map(|r| [r[0], r[1], r[2]]).collect();
-                        match name {
-                            "position" => frame.position = v,
-                            "velocity" => frame.velocity = v,
-                            "angular_velocity" => frame.angular_velocity = v,
-                            "force" => frame.force = v,
-                            "torque" => frame.torque = v,
-                            _ => unreachable!("FRAME_DATASETS has no other three-component dataset"),
-                        }
+        let a = d.read_slice::<f64, _, ndarray::Ix3>(ndarray::s![first..total, .., ..])?;
+        for (frame, block) in frames[start..].iter_mut().zip(a.outer_iter()) {
+            let rows = block.outer_iter();
+            match k {
+                3 => {
+                    let v: Vec<[f64; 3]> = rows.map(|r| [r[0], r[1], r[2]]).collect();
+                    match name {
+                        "position" => frame.position = v,
+                        "velocity" => frame.velocity = v,
+                        "angular_velocity" => frame.angular_velocity = v,
+                        "force" => frame.force = v,
+                        "torque" => frame.torque = v,
+                        _ => unreachable!("FRAME_DATASETS has no other three-component dataset"),
                     }
-                    4 => frame.quaternion = rows.map(|r| [r[0], r[1], r[2], r[3]]).collect(),
-                    _ => unreachable!("FRAME_DATASETS has three- and four-component datasets only"),
                 }
+                4 => frame.quaternion = rows.map(|r| [r[0], r[1], r[2], r[3]]).collect(),
+                _ => unreachable!("FRAME_DATASETS has three- and four-component datasets only"),
             }
         }
     }
-    Ok(ParticleHistory { statics, frames, first_frame: first, frames_in_file: total, nx, ny, nz, gravity })
+    Ok(last)
 }
 
 #[cfg(test)]
@@ -547,6 +746,8 @@ mod tests {
             w.append(&frame(step)).unwrap();
         }
         assert_eq!(w.frames(), 3);
+        w.finish().unwrap();
+        assert!(!segment_dir(&path).exists(), "segments left after the merge");
         let f = hdf5::File::open(&path).unwrap();
         assert_eq!(f.dataset("position").unwrap().shape(), vec![3, 2, 3]);
         assert_eq!(f.dataset("quaternion").unwrap().shape(), vec![3, 2, 4]);
@@ -578,6 +779,7 @@ mod tests {
         let mut bad = frame(1);
         bad.torque.pop();
         assert!(matches!(w.append(&bad), Err(ParticlesError::Length { name: "torque", len: 1, want: 2 })));
+        w.finish().unwrap();
         let f = hdf5::File::open(&path).unwrap();
         assert_eq!(f.dataset("torque").unwrap().shape(), vec![1, 2, 3]);
     }
@@ -614,5 +816,92 @@ mod tests {
         assert!(none.frames.is_empty());
         // (Debug text: the sphere's NaN length makes `==` false.)
         assert_eq!(format!("{:?}", none.statics), format!("{:?}", h.statics));
+    }
+    /// Frames `0, 10, 20, …`: `n` of them.
+    fn frames(n: u64) -> Vec<ParticleFrame> {
+        (0..n).map(|i| frame(10 * i)).collect()
+    }
+
+    #[test]
+    fn segments_read_like_one_file_before_and_after_the_merge() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("particles.h5");
+        let mut w = ParticleHistoryWriter::create(&path, Grid::new(4, 4, 4), [0.0; 3], &statics()).unwrap();
+        let written = frames(2 * SEGMENT_FRAMES as u64 + 5);
+        for f in &written {
+            w.append(f).unwrap();
+        }
+        // Three segments, particles.h5 still without frames.
+        assert_eq!(segments(&segment_dir(&path)).unwrap().len(), 3);
+        assert_eq!(hdf5::File::open(&path).unwrap().dataset("step").unwrap().shape(), vec![0]);
+        let during = read_particle_history(&path).unwrap();
+        assert_eq!(during.frames, written);
+        let tail = read_particle_history_from(&path, SEGMENT_FRAMES + 3).unwrap();
+        assert_eq!((tail.first_frame, tail.frames_in_file), (SEGMENT_FRAMES + 3, written.len()));
+        assert_eq!(tail.frames, written[SEGMENT_FRAMES + 3..]);
+        w.finish().unwrap();
+        assert!(!segment_dir(&path).exists());
+        assert_eq!(read_particle_history(&path).unwrap().frames, written);
+        // Appending goes on after a merge, into new segments.
+        let more = frame(10_000);
+        w.append(&more).unwrap();
+        let all = read_particle_history(&path).unwrap();
+        assert_eq!(all.frames.len(), written.len() + 1);
+        assert_eq!(all.frames.last(), Some(&more));
+    }
+
+    #[test]
+    fn resume_cuts_in_a_segment_and_continues_as_uninterrupted() {
+        let dir = tempfile::tempdir().unwrap();
+        let all = frames(SEGMENT_FRAMES as u64 + 10);
+        // Interrupted: everything written, then resumed at the step of frame SEGMENT_FRAMES + 4.
+        let path = dir.path().join("particles.h5");
+        let mut w = ParticleHistoryWriter::create(&path, Grid::new(4, 4, 4), [0.0; 3], &statics()).unwrap();
+        for f in &all {
+            w.append(f).unwrap();
+        }
+        drop(w);
+        let at = SEGMENT_FRAMES + 4;
+        let mut r = ParticleHistoryWriter::resume(&path, all[at].step).unwrap();
+        assert_eq!(r.frames(), at + 1);
+        assert_eq!(read_particle_history(&path).unwrap().frames, all[..=at]);
+        for f in &all[at + 1..] {
+            r.append(f).unwrap();
+        }
+        r.finish().unwrap();
+        assert_eq!(read_particle_history(&path).unwrap().frames, all);
+        // Resumed exactly at a segment boundary, and at a step before every frame.
+        let mut r = ParticleHistoryWriter::resume(&path, all[SEGMENT_FRAMES - 1].step).unwrap();
+        assert_eq!(r.frames(), SEGMENT_FRAMES);
+        r.append(&all[SEGMENT_FRAMES]).unwrap();
+        assert_eq!(read_particle_history(&path).unwrap().frames, all[..=SEGMENT_FRAMES]);
+        let r = ParticleHistoryWriter::resume(&path, 0).unwrap();
+        assert_eq!(r.frames(), 1);
+        assert!(!segment_dir(&path).exists());
+    }
+
+    #[test]
+    fn segments_left_by_an_interrupted_merge_are_skipped() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("particles.h5");
+        let mut w = ParticleHistoryWriter::create(&path, Grid::new(4, 4, 4), [0.0; 3], &statics()).unwrap();
+        let written = frames(SEGMENT_FRAMES as u64 + 2);
+        for f in &written {
+            w.append(f).unwrap();
+        }
+        // The merge renamed particles.h5 but died before removing the segments.
+        let keep = dir.path().join("keep");
+        std::fs::create_dir(&keep).unwrap();
+        for seg in segments(&segment_dir(&path)).unwrap() {
+            std::fs::copy(&seg, keep.join(seg.file_name().unwrap())).unwrap();
+        }
+        w.finish().unwrap();
+        std::fs::rename(&keep, segment_dir(&path)).unwrap();
+        assert_eq!(read_particle_history(&path).unwrap().frames, written);
+        let mut r = ParticleHistoryWriter::resume(&path, written.last().unwrap().step).unwrap();
+        assert_eq!(r.frames(), written.len());
+        assert!(!segment_dir(&path).exists(), "stale segments kept");
+        r.append(&frame(99_999)).unwrap();
+        assert_eq!(read_particle_history(&path).unwrap().frames.len(), written.len() + 1);
     }
 }
