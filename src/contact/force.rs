@@ -45,7 +45,7 @@ impl Pose {
     /// frame): the angular response at the marker, along `n̂`, to a unit impulse there.
     #[inline(always)]
     pub fn rotational_mobility(&self, r: &Vec3, nhat: &Vec3) -> f64 {
-        let t = self.rotation.tr_mul(&r.cross(nhat).into());
+        let t = self.rotation.tr_mul(&r.cross(nhat));
         t.component_mul(&self.inv_sqrt_moments).norm_squared()
     }
 
