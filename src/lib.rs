@@ -23,6 +23,7 @@
 //!   particles;
 //! - [`case`]: case files (TOML) and their validation;
 //! - [`io`]: HDF5/XDMF fields, CSV time series, checkpoints, particle histories, atomic writes;
+//! - [`drive`]: what the drivers share: the solver built from a case, the particle output;
 //! - [`run`]: driving a case from start to output;
 //! - [`settle`]: settling a case's particles to a bed (in the fluid, or dry for the
 //!   reproduction);
@@ -38,6 +39,7 @@ pub mod bench;
 pub mod case;
 pub mod contact;
 pub mod coupling;
+pub mod drive;
 pub mod ibm;
 pub mod io;
 pub mod lattice;

@@ -498,8 +498,8 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         eprintln!(
             "{name}: done in {:.0} s ({} steps, {:.1} MLUPS); report in {}",
             s.wall_time_s,
-            s.run.steps,
-            s.run.mlups,
+            s.record.run.steps,
+            s.record.run.mlups,
             s.report.display()
         );
     }

@@ -36,15 +36,15 @@ use serde::Serialize;
 
 use crate::case::{Case, ImpellerSetup, Precision};
 use crate::coupling::{Coupled, CoupledState, CouplingError};
+use crate::drive::{self, particle_frame, particle_statics};
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
-    ParticleFrame, ParticleHistoryWriter, ParticleStatic, TimeSeriesRow, TimeSeriesWriter,
+    ParticleFrame, ParticleHistoryWriter, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::{Fluid, Health, Real};
-use crate::rigid::Vec3;
 
 /// File names written into the output directory.
 pub mod files {
@@ -216,46 +216,6 @@ fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup
     }
 }
 
-/// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of the
-/// last step (a frame of `particles.h5`; also the bed of `slurry settle`).
-pub(crate) fn particle_frame<T: Real>(c: &Coupled<T>, n: usize) -> ParticleFrame {
-    let step = c.fluid().time();
-    let bodies = &c.bodies()[..n];
-    let v3 = |v: &Vec3| [v.x, v.y, v.z];
-    ParticleFrame {
-        step,
-        time: step as f64,
-        position: bodies.iter().map(|b| v3(&b.position)).collect(),
-        quaternion: bodies
-            .iter()
-            .map(|b| {
-                let q = b.orientation.quaternion();
-                [q.w, q.i, q.j, q.k]
-            })
-            .collect(),
-        velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
-        angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
-        force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
-        torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
-    }
-}
-
-/// The static per-particle data of `particles.h5`.
-pub(crate) fn particle_statics(inits: &[crate::case::ParticleInit]) -> Vec<ParticleStatic> {
-    inits
-        .iter()
-        .map(|p| ParticleStatic {
-            shape: p.shape.name(),
-            diameter: p.diameter,
-            length: p.length.unwrap_or(f64::NAN),
-            density: p.density,
-            volume: p.volume(),
-            mass: p.density * p.volume(),
-            motion: p.motion.name(),
-        })
-        .collect()
-}
-
 /// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
 /// run there are replaced). Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
@@ -338,17 +298,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
         let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
         let particles = inits.len();
-        let mut fluid = Fluid::<T>::new(case.grid(), case.fluid_params(), case.boundaries())
-            .context("cannot set up the fluid")?;
-        fluid.initialize(|x, y, z| case.initial_state(x, y, z));
         let mut solver = if inits.is_empty() && impeller.is_none() {
-            Solver::Fluid(Box::new(fluid))
+            Solver::Fluid(Box::new(drive::fluid(case)?))
         } else {
-            let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
-            bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
-            let coupled = Coupled::new(fluid, bodies, case.coupling_params())
-                .map_err(|e| anyhow::anyhow!("cannot couple the particles and the impeller: {e}"))?;
-            Solver::Coupled(Box::new(coupled))
+            Solver::Coupled(Box::new(drive::coupled(case, &inits, impeller.as_ref())?))
         };
         let (markers, impeller_markers) = match &solver {
             Solver::Coupled(c) => {

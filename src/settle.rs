@@ -22,10 +22,10 @@ use anyhow::Context;
 
 use crate::case::{Case, Precision};
 use crate::coupling::Coupled;
+use crate::drive::{self, particle_frame, particle_statics};
 use crate::io::{atomic_write_bytes, ParticleHistoryWriter};
-use crate::lbm::{Fluid, Real};
+use crate::lbm::Real;
 use crate::rigid::Vec3;
-use crate::run::{particle_frame, particle_statics};
 
 /// Options of [`settle_case`].
 #[derive(Clone, Copy, Debug)]
@@ -94,11 +94,7 @@ pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::
 fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
     let start = Instant::now();
     let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    let mut fluid = Fluid::<T>::new(case.grid(), case.fluid_params(), case.boundaries()).context("fluid")?;
-    fluid.initialize(|x, y, z| case.initial_state(x, y, z));
-    let bodies = inits.iter().map(|p| p.body()).collect();
-    let mut c =
-        Coupled::new(fluid, bodies, case.coupling_params()).map_err(|e| anyhow::anyhow!("coupling: {e}"))?;
+    let mut c = drive::coupled::<T>(case, &inits, None)?;
     let free: Vec<usize> = (0..c.bodies().len()).filter(|&b| c.bodies()[b].is_free()).collect();
     if free.is_empty() {
         anyhow::bail!("settle: no particle is free");

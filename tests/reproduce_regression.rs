@@ -32,7 +32,7 @@ fn pbt_ld2_reduced_run() {
         bed: DryBedOptions::default(),
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
-    let r = s.results.as_ref().unwrap();
+    let r = &s.results;
     for f in [
         "report.md",
         "statistics.h5",

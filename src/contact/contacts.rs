@@ -48,8 +48,9 @@ pub struct Contacts {
     pub(crate) loads: Vec<ContactLoad>,
     /// Per body `(Σ c, Σ k w)` of the last evaluation ([`ContactStats::damping_rate`]).
     stiffness: Vec<[f64; 2]>,
-    /// Per body `(1/m, 1/I_min)` (zero for non-free bodies) and its damping mobility sum `ρ`
-    /// (module `slots`, `accumulate`).
+    /// Per body `[1/m, 1]` (zero for non-free bodies: the weights of the translational and
+    /// rotational parts of its damping-rate bound `ρ`) and `ρ` itself (module `slots`,
+    /// `accumulate`).
     inverse_mass: Vec<[f64; 2]>,
     mobility: Vec<f64>,
     wall_reaction: Vec3,

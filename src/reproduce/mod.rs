@@ -13,7 +13,28 @@
 //! `N → N/s`, `ν → ν s`; the Shields number `N² D²/(g Δρ/ρ d)` then fixes `g → g/s`, and the
 //! ramp (half a revolution) takes `4000 s` steps. The particle count is the paper's (so
 //! `⟨φ⟩ = 0.148` up to the rounding of the grid). The contact parameters of Table 1 and the
-//! marker spacing are in lattice units and stay as they are.
+//! marker spacing are in lattice units and stay as they are (next section).
+//!
+//! # Contacts at reduced scale (a decision; `reproduce/README.md`)
+//! Table 1's lengths (`δ0 = λ = 0.5`, `δ_d = 1`, `δ_sat = 0.2`) are lattice units: `d/24 … d/12`
+//! at the paper's `d = 12`, `d/6 … d/3` at `s = 1/4`. Scaling them with `d` is bounded below
+//! by what the markers resolve, and that bound binds at every `s < 1`:
+//! - **`λ` and `δ0`**: markers are `h = 0.7` apart at every scale (the IBM's kernel is in
+//!   lattice units, so is its marker spacing). A marker pair interacts only if its tangential
+//!   offset is below `λ`, so a flat face has `Σ_j w ≈ πλ²/(3h²)` partners per marker: 0.53 at
+//!   `λ = 0.5`, 0.03 at `λ = s · 0.5 = 0.125`. Below `λ ≈ h/√2` the force depends on how the
+//!   two marker lattices happen to be aligned, and an edge can slip between markers; `δ0`
+//!   (the elastic range, which must stop an approach within a marker spacing) likewise.
+//! - **`δ_d` and `δ_sat`** stand for the lubrication the grid does not resolve, which starts
+//!   at gaps of about one lattice spacing whatever `d` is: they stay in lattice units.
+//! - **`k`, `kⁿ`, `kᵗ`** then stay too: with the ranges fixed, the sub-grid lubrication
+//!   `kⁿ (1/δ − 1/δ_d)` continues the resolved one at the gap where the grid stops resolving it.
+//!
+//! So Table 1 is used as printed at every scale. The price at `s = 1/4` (`d = 3`): touching
+//! surfaces rest about `δ0 = 0.5 = d/6` apart (`d/24` in the paper), so the settled bed is
+//! looser and higher in units of `d`, and nearly every marker pair of two neighbours is
+//! within reach (the contacts are then half of the coupled step). This is one of the reasons
+//! why `s = 1/4` results are a resolution study's coarsest point, not a reproduction.
 //!
 //! # Pipeline ([`reproduce`])
 //! 1. **Bed**: the case's seeded random placement in the whole box, settled dry
@@ -349,9 +370,9 @@ pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
     s
 }
 
-/// What [`reproduce`] did.
+/// What the pipeline ran: the report's input besides the run's files ([`report::write_all`]).
 #[derive(Clone, Debug, Serialize)]
-pub struct ReproduceSummary {
+pub struct RunRecord {
     /// Case name.
     pub case: String,
     /// Scale.
@@ -364,12 +385,20 @@ pub struct ReproduceSummary {
     pub bed_cached: bool,
     /// The stirred run's summary.
     pub run: RunSummary,
+}
+
+/// What [`reproduce`] did (`reproduce.json`: the record's fields, then these).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReproduceSummary {
+    /// What was run.
+    #[serde(flatten)]
+    pub record: RunRecord,
     /// Wall-clock seconds of the whole pipeline.
     pub wall_time_s: f64,
     /// `report.md`.
     pub report: PathBuf,
     /// The statistics and the comparison with the paper.
-    pub results: Option<report::Results>,
+    pub results: report::Results,
 }
 
 /// Runs the pipeline (module docs) for the case `name` into `opts.out`.
@@ -400,19 +429,21 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     case.validate().map_err(|kind| anyhow::anyhow!("the stirred case of {name} is invalid: {kind}"))?;
     let run_dir = opts.out.join("run");
     let run = run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume })?;
-    let mut summary = ReproduceSummary {
+    let record = RunRecord {
         case: name.to_string(),
         scale: opts.scale,
         revolutions: opts.revolutions,
         schedule: sched,
         bed_cached: cached,
         run,
-        wall_time_s: 0.0,
-        report: opts.out.join("report.md"),
-        results: None,
     };
-    summary.results = Some(report::write_all(name, &case, &paper, &summary, &bed, &opts.out)?);
-    summary.wall_time_s = t0.elapsed().as_secs_f64();
+    let results = report::write_all(name, &case, &paper, &record, &bed, &opts.out)?;
+    let summary = ReproduceSummary {
+        record,
+        wall_time_s: t0.elapsed().as_secs_f64(),
+        report: opts.out.join("report.md"),
+        results,
+    };
     let mut json = serde_json::to_string_pretty(&summary).context("cannot serialise the summary")?;
     let _ = writeln!(json);
     let p = opts.out.join("reproduce.json");

@@ -24,7 +24,7 @@ use std::path::Path;
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
-use super::{BedRecord, ReproduceSummary};
+use super::{BedRecord, RunRecord};
 use crate::case::Case;
 use crate::io::atomic_write_bytes;
 use crate::plot::{self, FieldImage, FieldSize, LegendPosition, LinePlot, Series, SeriesStyle};
@@ -319,8 +319,8 @@ fn mean_over_last(rev: &[f64], v: &[f64], last: f64) -> f64 {
     s / n.max(1) as f64
 }
 
-/// Writes the statistics, figures and `report.md` into `out` (module docs) and returns the
-/// scalar results.
+/// Writes the statistics, figures and `report.md` into `out` (module docs) from the run's
+/// files in `out/run` and what was run (`summary`), and returns the scalar results.
 ///
 /// # Errors
 /// Reading the run's output or writing the report failed.
@@ -328,7 +328,7 @@ pub fn write_all(
     name: &str,
     case: &Case,
     paper: &PaperValues,
-    summary: &ReproduceSummary,
+    summary: &RunRecord,
     bed: &BedRecord,
     out: &Path,
 ) -> anyhow::Result<Results> {
@@ -640,7 +640,7 @@ fn report_md(
     name: &str,
     case: &Case,
     paper: &PaperValues,
-    s: &ReproduceSummary,
+    s: &RunRecord,
     bed: &BedRecord,
     r: &Results,
     figs: &[(String, String)],
