@@ -46,6 +46,10 @@ fn scale_range_is_checked_before_anything_starts() {
     let (code, stderr, _) = reproduce(&["pbt-ld1", "--revolutions", "-1"]);
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--revolutions -1") && stderr.contains("> 0"), "{stderr}");
+    let (code, stderr, took) = reproduce(&["pbt-ld2", "--contact-substeps", "0", "--lubrication-limiter"]);
+    assert_eq!(code, 2, "{stderr}");
+    assert!(stderr.contains("--contact-substeps 0") && stderr.contains("[1, 1024]"), "{stderr}");
+    assert!(took < Duration::from_secs(5), "--contact-substeps 0 took {took:?}");
 }
 
 #[test]

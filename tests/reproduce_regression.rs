@@ -30,6 +30,7 @@ fn pbt_ld2_reduced_run() {
         resume: false,
         quiet: true,
         bed: DryBedOptions::default(),
+        contacts: Default::default(),
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;

@@ -687,6 +687,9 @@ fn report_md(
         s.run.max_mach,
         s.run.relative_mass_change
     );
+    if let Some(c) = s.contacts.describe() {
+        let _ = writeln!(m, "- Contacts of the stirred run: {c}.");
+    }
     if let Some(k) = s.run.resumed_from {
         let _ = writeln!(
             m,

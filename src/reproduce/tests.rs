@@ -73,3 +73,24 @@ fn schedule_is_even_and_covers_the_revolutions() {
     assert!(scale_case(&c, 0.05).is_err());
     assert!(paper_case("pbt-ld3").unwrap_err().to_string().contains("pbt-ld2"));
 }
+
+#[test]
+fn contact_overrides_change_only_the_stirred_runs_contacts() {
+    let c = scale_case(&paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25).unwrap();
+    let none = ContactOverrides::default();
+    assert!(none.is_default() && none.describe().is_none());
+    let mut same = c.clone();
+    none.apply(&mut same);
+    assert_eq!(same, c);
+    let o = ContactOverrides { substeps: Some(2), lubrication_limiter: true };
+    let mut changed = c.clone();
+    o.apply(&mut changed);
+    let k = changed.contacts.unwrap();
+    assert_eq!((k.substeps, k.lubrication_limiter), (2, true));
+    assert_eq!(changed.contacts.map(|k| k.params().k), c.contacts.map(|k| k.params().k));
+    assert_ne!(changed.fingerprint(), c.fingerprint(), "a resume with other contacts must be refused");
+    assert!(o.describe().unwrap().contains("2 sub-steps per fluid step, lubrication limiter on"));
+    assert!(check_contact_substeps(1).is_ok() && check_contact_substeps(1024).is_ok());
+    assert!(check_contact_substeps(0).unwrap_err().contains("[1, 1024]"));
+    assert!(check_contact_substeps(1025).is_err());
+}
