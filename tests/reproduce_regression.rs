@@ -51,9 +51,15 @@ fn pbt_ld2_reduced_run() {
         "run/particles.h5",
         "run/timeseries.csv",
         "run/checkpoint.h5",
+        "manifest.json",
     ] {
         assert!(opts.out.join(f).is_file(), "{f} missing");
     }
+    let m = slurry::reproduce::manifest::Manifest::read(&opts.out).expect("manifest.json readable");
+    assert_eq!((m.status.as_str(), m.restarts, m.sessions.len()), ("finished", 0, 1));
+    assert_eq!(m.steps_done, Some(s.record.run.steps));
+    assert!((m.revolutions_done.unwrap() - 0.1).abs() < 1e-9, "{:?}", m.revolutions_done);
+    assert!(m.sessions[0].ended.is_some() && !m.sessions[0].git_revision.is_empty());
     // Time in units of 1/N: the ramp (1000 steps, half a revolution) counts 1, then 0.1.
     assert!((r.revolutions - 1.1).abs() < 1e-9, "t N at the end: {}", r.revolutions);
     assert!(r.mean_height_final > 0.0 && r.mean_height_final < 0.5, "<z_p>/H = {}", r.mean_height_final);

@@ -49,6 +49,7 @@
 //!    and `fields.h5`, deterministic, written atomically.
 
 pub mod bench;
+pub mod manifest;
 pub mod report;
 
 use std::fmt::Write as _;
@@ -124,7 +125,7 @@ pub fn check_contact_substeps(n: usize) -> Result<(), String> {
 /// it is shared through the cache); the stirred run's `case.toml`, `reproduce.json` and
 /// `report.md` record the change, and its fingerprint differs, so a `--resume` with other
 /// settings is refused.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ContactOverrides {
     /// Contact sub-steps per fluid step (`None`: the case's, [`crate::contact::DEFAULT_SUBSTEPS`]).
     pub substeps: Option<usize>,
@@ -489,6 +490,21 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let mut case = stirred_case(&scaled, &bed, &sched);
     opts.contacts.apply(&mut case);
     case.validate().map_err(|kind| anyhow::anyhow!("the stirred case of {name} is invalid: {kind}"))?;
+    let first = manifest::Manifest {
+        case: name.to_string(),
+        scale: opts.scale,
+        revolutions: opts.revolutions,
+        contacts: opts.contacts,
+        steps: sched.steps,
+        status: String::new(),
+        steps_done: None,
+        revolutions_done: None,
+        restarts: 0,
+        wall_time_s: 0.0,
+        sessions: Vec::new(),
+    };
+    let session = manifest::this_session(rayon::current_num_threads());
+    let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let run_dir = opts.out.join("run");
     let run = run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume })?;
     let record = RunRecord {
@@ -501,6 +517,15 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         run,
     };
     let results = report::write_all(name, &case, &paper, &record, &bed, &opts.out)?;
+    let revolutions_done =
+        (record.run.steps.saturating_sub(sched.ramp_steps)) as f64 / sched.steps_per_revolution;
+    record_file.finish(
+        &opts.out,
+        t0.elapsed().as_secs_f64(),
+        record.run.steps,
+        revolutions_done,
+        record.run.resumed_from,
+    )?;
     let summary = ReproduceSummary {
         record,
         wall_time_s: t0.elapsed().as_secs_f64(),

@@ -754,7 +754,9 @@ fn report_md(
         m,
         "## Files\n\n- `run/`: the stirred run (`timeseries.csv`, `particles.h5`, `fields.h5` + `fields.xmf`, \
          `checkpoint.h5`, `case.toml`, `summary.json`)\n- `statistics.h5`, `statistics.json`: the statistics above\n\
-         - `midplane.h5` + `midplane.xmf`: the speed on the mid-plane (ParaView)\n"
+         - `midplane.h5` + `midplane.xmf`: the speed on the mid-plane (ParaView)\n\
+         - `manifest.json`: revision, command, host, threads, sessions (restarts) and wall time; \
+         `reproduce.json`: the run's summary and these results\n"
     );
     m
 }
