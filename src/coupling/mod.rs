@@ -810,26 +810,26 @@ impl<T: Real> Coupled<T> {
             *slot += (now - clock).as_secs_f64();
             clock = now;
         };
-        let mut tm = self.timings;
+        let mut timings = self.timings;
         self.place_markers(); // 1
         self.build_geometry()?; // 2
-        lap(&mut tm.geometry);
+        lap(&mut timings.geometry);
         self.interior_sums(Moment::Before); // 3
-        lap(&mut tm.interior);
+        lap(&mut timings.interior);
         self.clear_forcing(); // 4
         self.force(); // 5
-        lap(&mut tm.forcing);
+        lap(&mut timings.forcing);
         self.fluid.step(); // 6
-        lap(&mut tm.fluid);
+        lap(&mut timings.fluid);
         self.interior_sums(Moment::After); // 7
-        lap(&mut tm.interior);
+        lap(&mut timings.interior);
         self.collect_loads(); // 7
-        lap(&mut tm.bodies);
+        lap(&mut timings.bodies);
         self.advance_bodies(); // 8
-        lap(&mut tm.contacts);
+        lap(&mut timings.contacts);
         std::mem::swap(&mut self.band, &mut self.band_prev);
-        tm.steps += 1;
-        self.timings = tm;
+        timings.steps += 1;
+        self.timings = timings;
         Ok(())
     }
 

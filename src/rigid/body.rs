@@ -22,8 +22,8 @@ pub trait PrescribedMotion: Send + Sync + std::fmt::Debug {
     /// exact for velocities linear in time about a fixed axis (a linear ramp), second order in
     /// general. Implementations with a closed form override it.
     fn displacement(&self, t: f64, dt: f64) -> (Vec3, Quat) {
-        let tm = t + 0.5 * dt;
-        (self.velocity(tm) * dt, integrate::rotation_quaternion(&(self.angular_velocity(tm) * dt)))
+        let t_mid = t + 0.5 * dt;
+        (self.velocity(t_mid) * dt, integrate::rotation_quaternion(&(self.angular_velocity(t_mid) * dt)))
     }
 }
 

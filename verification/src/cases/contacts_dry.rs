@@ -505,7 +505,7 @@ pub fn run(tier: Tier) -> CaseOutput {
     ));
 
     // Stability at saturation.
-    let mut ts = Table::new(
+    let mut saturation = Table::new(
         "saturated lubrication (elastic off, gap 0.1): per-step amplification of the relative normal velocity",
         &[
             ("d", true),
@@ -524,7 +524,7 @@ pub fn run(tier: Tier) -> CaseOutput {
             for n in [4, 8, 16] {
                 let (c, m, g, gp) = saturated(s, d, n, false);
                 let b = c / (m * n as f64);
-                ts.push(vec![d, s.index(), c, m, n as f64, b, g, gp]);
+                saturation.push(vec![d, s.index(), c, m, n as f64, b, g, gp]);
                 worst_fit = worst_fit.max((g / gp - 1.0).abs());
                 if n == DEFAULT_SUBSTEPS {
                     if d < 12.0 {
@@ -536,7 +536,7 @@ pub fn run(tier: Tier) -> CaseOutput {
             }
         }
     }
-    out.tables.push(ts);
+    out.tables.push(saturation);
     out.checks.push(Check::at_most(
         CASE,
         "saturated_amplification_matches_analysis",
@@ -563,7 +563,7 @@ pub fn run(tier: Tier) -> CaseOutput {
 
     // The opt-in lubrication limiter on the same saturated contacts, at sub-step counts where the
     // explicit law is unstable.
-    let mut tl = Table::new(
+    let mut limited = Table::new(
         "saturated lubrication with the lubrication limiter: per-step amplification g",
         &[("d", true), ("setup", true), ("n_sub", true), ("b", true), ("g", true)],
     );
@@ -573,13 +573,13 @@ pub fn run(tier: Tier) -> CaseOutput {
         for s in [Setup::CylinderEnd, Setup::WallFlat] {
             for n in [1, 2, 4] {
                 let (c, m, g, _) = saturated(s, d, n, true);
-                tl.push(vec![d, s.index(), n as f64, c / (m * n as f64), g]);
+                limited.push(vec![d, s.index(), n as f64, c / (m * n as f64), g]);
                 worst_g = worst_g.max(g);
                 least_g = least_g.min(g);
             }
         }
     }
-    out.tables.push(tl);
+    out.tables.push(limited);
     out.checks.push(Check::at_most(
         CASE,
         "limiter_saturated_stable",

@@ -292,19 +292,19 @@ fn cost() -> Table {
         for threads in [1, 2] {
             let (b, i, s) = in_pool(threads, || {
                 let mut st = Stencils::new(k);
-                let (mut tb, mut ti, mut ts) = (Vec::new(), Vec::new(), Vec::new());
+                let (mut build_s, mut interpolate_s, mut spread_s) = (Vec::new(), Vec::new(), Vec::new());
                 for _ in 0..7 {
                     let t0 = Instant::now();
                     st.build(grid, [true; 3], &pos).expect("inside");
-                    tb.push(t0.elapsed().as_secs_f64());
+                    build_s.push(t0.elapsed().as_secs_f64());
                     let t0 = Instant::now();
                     interpolate(&u, &st, &mut iu);
-                    ti.push(t0.elapsed().as_secs_f64());
+                    interpolate_s.push(t0.elapsed().as_secs_f64());
                     let t0 = Instant::now();
                     spread(&f, &st, &mut field);
-                    ts.push(t0.elapsed().as_secs_f64());
+                    spread_s.push(t0.elapsed().as_secs_f64());
                 }
-                (min(&tb), min(&ti), min(&ts))
+                (min(&build_s), min(&interpolate_s), min(&spread_s))
             });
             let per = 1e9 / pos.len() as f64;
             t.push(vec![kernel_id(k), threads as f64, b * per, i * per, s * per]);
