@@ -90,6 +90,20 @@ struct ReproduceArgs {
     /// measured).
     #[arg(long)]
     lubrication_limiter: bool,
+    /// How the bed is settled: `dry` (no fluid, amplified gravity against a linear drag;
+    /// minutes) or `wet` (in the fluid under the case's gravity, as the paper does; about
+    /// 20 min at the default scale, 16× that at s = 1/2). Each is cached separately.
+    #[arg(long, value_enum, default_value_t = BedArg::Dry)]
+    bed: BedArg,
+}
+
+/// `slurry reproduce --bed`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum BedArg {
+    /// Settled without fluid.
+    Dry,
+    /// Settled in the fluid.
+    Wet,
 }
 
 /// `slurry bench`.
@@ -500,7 +514,10 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             cache: cache.clone(),
             resume: a.resume,
             quiet: a.quiet,
-            bed: Default::default(),
+            bed: match a.bed {
+                BedArg::Dry => reproduce::BedMethod::default(),
+                BedArg::Wet => reproduce::BedMethod::Wet,
+            },
             contacts,
         };
         let s = pool

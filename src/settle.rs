@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use anyhow::Context;
 
-use crate::case::{Case, Precision};
+use crate::case::{Case, ParticleSpec, Precision};
 use crate::coupling::Coupled;
 use crate::drive::{self, particle_frame, particle_statics};
 use crate::io::{atomic_write_bytes, ParticleHistoryWriter};
@@ -67,11 +67,74 @@ pub struct SettleSummary {
 /// A case without free particles, gravity or `[contacts]`; a coupling error; numerical
 /// trouble (non-finite particle state); an output failure.
 pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
-    // The paper settles the bed with no impeller present (physics.md §2); an `[impeller]`
-    // section is ignored here.
+    let case = settling_case(case)?;
+    std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    let settled = in_fluid(&case, opts)?;
+    let bed = &settled.bed;
+    // The bed: one frame in the particles.h5 layout, and explicit [[particles]] entries.
+    let bed_h5 = out_dir.join("bed.h5");
+    let mut w = ParticleHistoryWriter::create(&bed_h5, case.grid(), case.gravity(), &settled.statics)
+        .with_context(|| format!("cannot write {}", bed_h5.display()))?;
+    w.append(&settled.frame)
+        .and_then(|()| w.finish())
+        .with_context(|| format!("cannot write {}", bed_h5.display()))?;
+    let mut toml = format!(
+        "# Settled bed from slurry settle: {} particles after {} steps, mean speed {:e} ({}).\n",
+        bed.particles.len(),
+        bed.steps,
+        bed.mean_speed,
+        if bed.settled { "settled" } else { "NOT settled: max_steps reached" }
+    );
+    for p in &bed.particles {
+        let q = p.orientation.unwrap_or([1.0, 0.0, 0.0, 0.0]);
+        let x = p.position;
+        let _ = write!(
+            toml,
+            "\n[[particles]]\nshape = \"{}\"\ndiameter = {:?}\n{}density = {:?}\nposition = [{:?}, {:?}, {:?}]\n\
+             orientation = [{:?}, {:?}, {:?}, {:?}]\nmotion = \"{}\"\n",
+            p.shape.name(),
+            p.diameter,
+            p.length.map_or(String::new(), |l| format!("length = {l:?}\n")),
+            p.density,
+            x[0],
+            x[1],
+            x[2],
+            q[0],
+            q[1],
+            q[2],
+            q[3],
+            p.motion.name()
+        );
+    }
+    let bed_toml = out_dir.join("bed_particles.toml");
+    atomic_write_bytes(&bed_toml, toml.as_bytes())
+        .with_context(|| format!("cannot write {}", bed_toml.display()))?;
+    Ok(SettleSummary {
+        steps: bed.steps,
+        mean_speed: bed.mean_speed,
+        settled: bed.settled,
+        mean_height: bed.mean_height,
+        seconds: bed.seconds,
+        bed_h5,
+        bed_toml,
+    })
+}
+
+/// Settles `case`'s particles **in the fluid** under the case's gravity (module docs: the
+/// paper's way, `slurry settle`'s stopping rule), and returns the bed without writing it:
+/// the reproduction's `--bed wet`.
+///
+/// # Errors
+/// As [`settle_case`], without the output.
+pub fn wet_bed(case: &Case, opts: SettleOptions) -> anyhow::Result<Bed> {
+    Ok(in_fluid(&settling_case(case)?, opts)?.bed)
+}
+
+/// `case` without its impeller (the paper settles the bed with no impeller present,
+/// physics.md §2), checked for what settling needs.
+fn settling_case(case: &Case) -> anyhow::Result<Case> {
     let mut case = case.clone();
     case.impeller = None;
-    let case = &case;
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     if !case.has_particles() {
         anyhow::bail!("settle: the case has no particles");
@@ -84,14 +147,24 @@ pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::
     if case.gravity() == [0.0; 3] {
         anyhow::bail!("settle: gravity is zero; nothing would settle");
     }
-    std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    Ok(case)
+}
+
+/// A bed settled in the fluid, with what `bed.h5` needs.
+struct InFluid {
+    bed: Bed,
+    statics: Vec<crate::io::ParticleStatic>,
+    frame: crate::io::ParticleFrame,
+}
+
+fn in_fluid(case: &Case, opts: SettleOptions) -> anyhow::Result<InFluid> {
     match case.fluid.precision {
-        Precision::F32 => settle_typed::<f32>(case, out_dir, opts),
-        Precision::F64 => settle_typed::<f64>(case, out_dir, opts),
+        Precision::F32 => in_fluid_typed::<f32>(case, opts),
+        Precision::F64 => in_fluid_typed::<f64>(case, opts),
     }
 }
 
-fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
+fn in_fluid_typed<T: Real>(case: &Case, opts: SettleOptions) -> anyhow::Result<InFluid> {
     let start = Instant::now();
     let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     let mut c = drive::coupled::<T>(case, &inits, None)?;
@@ -111,7 +184,8 @@ fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> an
         if !speed.is_finite() {
             anyhow::bail!("settle: particle velocities became non-finite by step {steps}");
         }
-        if !opts.quiet {
+        // Progress every tenth check (the check's cadence is the stopping rule's, not the output's).
+        if !opts.quiet && (steps / every).is_multiple_of(10) {
             eprintln!(
                 "settle: step {steps}, mean particle speed {speed:.3e} (stop below {:.1e}), {:.0} s",
                 opts.speed,
@@ -123,54 +197,44 @@ fn settle_typed<T: Real>(case: &Case, out_dir: &Path, opts: SettleOptions) -> an
             break;
         }
     }
-    // The bed: one frame in the particles.h5 layout, and explicit [[particles]] entries.
-    let statics = particle_statics(&inits);
-    let bed_h5 = out_dir.join("bed.h5");
-    let mut w = ParticleHistoryWriter::create(&bed_h5, case.grid(), case.gravity(), &statics)
-        .with_context(|| format!("cannot write {}", bed_h5.display()))?;
-    let frame = particle_frame(&c, inits.len());
-    let bodies = c.bodies();
-    w.append(&frame)
-        .and_then(|()| w.finish())
-        .with_context(|| format!("cannot write {}", bed_h5.display()))?;
-    let mut toml = format!(
-        "# Settled bed from slurry settle: {} particles after {steps} steps, mean speed {speed:e} ({}).\n",
-        bodies.len(),
-        if settled { "settled" } else { "NOT settled: max_steps reached" }
-    );
-    for (p, b) in inits.iter().zip(bodies) {
-        let q = b.orientation.quaternion();
-        let _ = write!(
-            toml,
-            "\n[[particles]]\nshape = \"{}\"\ndiameter = {:?}\n{}density = {:?}\nposition = [{:?}, {:?}, {:?}]\n\
-             orientation = [{:?}, {:?}, {:?}, {:?}]\nmotion = \"{}\"\n",
-            p.shape.name(),
-            p.diameter,
-            p.length.map_or(String::new(), |l| format!("length = {l:?}\n")),
-            p.density,
-            b.position.x,
-            b.position.y,
-            b.position.z,
-            q.w,
-            q.i,
-            q.j,
-            q.k,
-            p.motion.name()
-        );
-    }
-    let bed_toml = out_dir.join("bed_particles.toml");
-    atomic_write_bytes(&bed_toml, toml.as_bytes())
-        .with_context(|| format!("cannot write {}", bed_toml.display()))?;
-    let mean_height = bodies.iter().map(|b| b.position.z).sum::<f64>() / bodies.len() as f64;
-    Ok(SettleSummary {
+    let bodies = &c.bodies()[..inits.len()];
+    let max_speed = free.iter().map(|&b| c.bodies()[b].velocity.norm()).fold(0.0, f64::max);
+    let bed = Bed {
+        particles: resting_specs(&inits, bodies),
         steps,
         mean_speed: speed,
+        max_speed,
         settled,
-        mean_height,
+        mean_height: bodies.iter().map(|b| b.position.z).sum::<f64>() / bodies.len() as f64,
         seconds: start.elapsed().as_secs_f64(),
-        bed_h5,
-        bed_toml,
-    })
+    };
+    Ok(InFluid { bed, statics: particle_statics(&inits), frame: particle_frame(&c, inits.len()) })
+}
+
+/// The bodies as explicit case entries at rest (position and orientation; no velocities).
+fn resting_specs(
+    inits: &[crate::case::ParticleInit],
+    bodies: &[crate::rigid::RigidBody],
+) -> Vec<ParticleSpec> {
+    inits
+        .iter()
+        .zip(bodies)
+        .map(|(p, b)| {
+            let q = b.orientation.quaternion();
+            ParticleSpec {
+                shape: p.shape,
+                diameter: p.diameter,
+                length: p.length,
+                density: p.density,
+                position: [b.position.x, b.position.y, b.position.z],
+                orientation: Some([q.w, q.i, q.j, q.k]),
+                axis: None,
+                velocity: None,
+                angular_velocity: None,
+                motion: p.motion,
+            }
+        })
+        .collect()
 }
 
 /// Options of [`dry_bed`].
@@ -204,9 +268,9 @@ impl Default for DryBedOptions {
     }
 }
 
-/// A bed made by [`dry_bed`].
+/// A settled bed, made by [`dry_bed`] or [`wet_bed`].
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct DryBed {
+pub struct Bed {
     /// The particles at rest, as explicit case entries (in the order of
     /// [`Case::particle_inits`]).
     pub particles: Vec<crate::case::ParticleSpec>,
@@ -249,7 +313,7 @@ pub struct DryBed {
 ///
 /// # Errors
 /// A case without free particles, gravity or `[contacts]`, or invalid contact parameters.
-pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<DryBed> {
+pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
     use crate::contact::{Contacts, Walls};
     use crate::rigid::Marker;
     use std::sync::Arc;
@@ -328,27 +392,9 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<DryBed> {
             break;
         }
     }
-    let particles = inits
-        .iter()
-        .zip(&bodies)
-        .map(|(p, b)| {
-            let q = b.orientation.quaternion();
-            crate::case::ParticleSpec {
-                shape: p.shape,
-                diameter: p.diameter,
-                length: p.length,
-                density: p.density,
-                position: [b.position.x, b.position.y, b.position.z],
-                orientation: Some([q.w, q.i, q.j, q.k]),
-                axis: None,
-                velocity: None,
-                angular_velocity: None,
-                motion: p.motion,
-            }
-        })
-        .collect();
+    let particles = resting_specs(&inits, &bodies);
     let mean_height = bodies.iter().map(|b| b.position.z).sum::<f64>() / bodies.len() as f64;
-    Ok(DryBed {
+    Ok(Bed {
         particles,
         steps,
         mean_speed: vmean,

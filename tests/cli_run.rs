@@ -300,4 +300,22 @@ fn settle_writes_a_reusable_bed() {
     std::fs::write(&stirred, format!("{head}\n{bed}")).unwrap();
     let o = slurry(&["check", stirred.to_str().unwrap()]);
     assert!(o.status.success(), "{}", stderr(&o));
+
+    // The reproduction's `--bed wet` settles through the same code: with the same stopping
+    // rule it gives this bed bit for bit, and says it settled.
+    let c = slurry::case::Case::parse(&settle_case, &case).unwrap();
+    let opts = slurry::settle::SettleOptions {
+        speed: 2e-4,
+        check_every: 100,
+        min_steps: 400,
+        max_steps: 30000,
+        quiet: true,
+    };
+    let wet = slurry::settle::wet_bed(&c, opts).unwrap();
+    assert!(wet.settled && wet.mean_speed < 2e-4, "{wet:?}");
+    let wet_pos: Vec<f64> = wet.particles.iter().flat_map(|p| p.position).collect();
+    assert!(
+        wet_pos.iter().zip(&pa).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "wet_bed {wet_pos:?} differs from slurry settle's bed {pa:?}"
+    );
 }

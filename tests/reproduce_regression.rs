@@ -17,7 +17,6 @@
 //! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};
-use slurry::settle::DryBedOptions;
 
 #[test]
 fn pbt_ld2_reduced_run() {
@@ -29,7 +28,7 @@ fn pbt_ld2_reduced_run() {
         cache: dir.path().join("cache"),
         resume: false,
         quiet: true,
-        bed: DryBedOptions::default(),
+        bed: Default::default(),
         contacts: Default::default(),
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();

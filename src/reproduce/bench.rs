@@ -20,7 +20,6 @@ use serde::Serialize;
 use crate::case::ImpellerSetup;
 use crate::coupling::Coupled;
 use crate::lbm::Fluid;
-use crate::settle::DryBedOptions;
 
 /// The measurement of one case at one scale (what `target/bench/coupled.json` holds).
 #[derive(Clone, Debug, Serialize)]
@@ -113,7 +112,7 @@ pub fn bench_case(
 ) -> anyhow::Result<CoupledBench> {
     let pc = super::paper_case(name)?;
     let scaled = super::scale_case(&pc.case()?, scale)?;
-    let (bed, _) = super::bed(name, &scaled, DryBedOptions::default(), cache, quiet)?;
+    let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet)?;
     let sched = super::schedule(&scaled, 1.0)?;
     let case = super::stirred_case(&scaled, &bed, &sched);
     let grid = case.grid();

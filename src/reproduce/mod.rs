@@ -38,7 +38,8 @@
 //!
 //! # Pipeline ([`reproduce`])
 //! 1. **Bed**: the case's seeded random placement in the whole box, settled dry
-//!    ([`crate::settle::dry_bed`]), with no impeller. The bed is cached under
+//!    ([`crate::settle::dry_bed`], the default) or in the fluid under the case's gravity
+//!    (`--bed wet`, [`crate::settle::wet_bed`], as the paper does), with no impeller. The bed is cached under
 //!    `CACHE/beds/<case>-<key>/` by a hash of everything it depends on (the scaled case
 //!    without its run settings and impeller, and the settling options), and reused.
 //! 2. **Stirred run**: the bed's particles as explicit particles, the impeller inserted,
@@ -62,7 +63,7 @@ use serde::{Deserialize, Serialize};
 use crate::case::Case;
 use crate::io::atomic_write_bytes;
 use crate::run::{run_case, RunOptions, RunSummary};
-use crate::settle::{dry_bed, DryBed, DryBedOptions};
+use crate::settle::{dry_bed, wet_bed, Bed, DryBedOptions, SettleOptions};
 
 /// The paper's cases, in the order of `--all`.
 pub const CASES: [&str; 6] = ["disk-ld1", "disk-ld2", "disk-ld4", "pbt-ld1", "pbt-ld2", "pbt-ld4"];
@@ -298,8 +299,8 @@ pub struct ReproduceOptions {
     pub resume: bool,
     /// No progress output.
     pub quiet: bool,
-    /// Dry settling of the bed.
-    pub bed: DryBedOptions,
+    /// How the bed is settled.
+    pub bed: BedMethod,
     /// Contact settings of the stirred run, where they differ from the case's.
     pub contacts: ContactOverrides,
 }
@@ -352,21 +353,60 @@ fn fnv1a(text: &str) -> u64 {
 pub struct BedRecord {
     /// What the bed was made from.
     pub inputs: String,
+    /// Settled in the fluid (`--bed wet`), not dry; absent (dry) in caches made before `--bed`.
+    #[serde(default)]
+    pub wet: bool,
     /// The bed.
     #[serde(flatten)]
-    pub bed: DryBed,
+    pub bed: Bed,
+}
+
+/// How the bed is settled (`slurry reproduce --bed dry|wet`).
+#[derive(Clone, Copy, Debug)]
+pub enum BedMethod {
+    /// Without fluid, at `gravity_factor` × gravity against a linear drag ([`dry_bed`]): the
+    /// default, cheap (contacts only).
+    Dry(DryBedOptions),
+    /// In the fluid under the case's own gravity, as the paper does ([`wet_bed`]); the
+    /// stopping rule from the scaled case ([`wet_settling`]).
+    Wet,
+}
+
+impl Default for BedMethod {
+    fn default() -> Self {
+        BedMethod::Dry(DryBedOptions::default())
+    }
+}
+
+/// The wet settling's stopping rule for the scaled case `c`, from the Stokes settling speed
+/// of a sphere of the particles' diameter, `v_s = (γ − 1) g d²/(18 ν)` (1.6e-3 at every
+/// scale for the paper's cases: `g ∝ 1/s`, `d ∝ s`, `ν ∝ s`): stop when the mean particle
+/// speed is below `0.02 v_s`, checked every 100 steps, not before the time to fall the tank's
+/// height `n_z / v_s`, and give up after 4 times that (the bed is then marked not settled).
+pub fn wet_settling(c: &Case) -> SettleOptions {
+    let g = c.gravity();
+    let g = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    let (d, gamma) = c
+        .random_particles
+        .first()
+        .map(|r| (r.diameter, r.density))
+        .or_else(|| c.particles.first().map(|p| (p.diameter, p.density)))
+        .unwrap_or((1.0, 2.0));
+    let v_s = ((gamma - 1.0) * g * d * d / (18.0 * c.nu())).max(1e-12);
+    let fall = (c.grid().nz as f64 / v_s).ceil().min(1e9) as u64;
+    SettleOptions { speed: 0.02 * v_s, check_every: 100, min_steps: fall, max_steps: 4 * fall, quiet: true }
 }
 
 /// The bed of the scaled case `c`: from the cache when it holds one made from the same
-/// inputs, else settled ([`dry_bed`]) and stored (atomically). Returns the record and
-/// whether it came from the cache.
+/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
+/// record and whether it came from the cache.
 ///
 /// # Errors
 /// Settling failed, or the cache cannot be written.
 pub fn bed(
     name: &str,
     c: &Case,
-    opts: DryBedOptions,
+    method: BedMethod,
     cache: &Path,
     quiet: bool,
 ) -> anyhow::Result<(BedRecord, bool)> {
@@ -378,15 +418,18 @@ pub fn bed(
         mach_limit: crate::case::default_mach_limit(),
         checkpoint_every: None,
     };
-    let inputs = format!(
-        "{}\n# dry bed: gravity x {:?}, terminal speed {:?}, stop below {:?} of it, steps {}..{}\n",
-        toml::to_string(&key_case.normalised()).context("cannot serialise the case")?,
-        opts.gravity_factor,
-        opts.terminal_speed,
-        opts.stop_fraction,
-        opts.min_steps,
-        opts.max_steps
-    );
+    let case_text = toml::to_string(&key_case.normalised()).context("cannot serialise the case")?;
+    let wet = wet_settling(&key_case);
+    let inputs = match method {
+        BedMethod::Dry(opts) => format!(
+            "{case_text}\n# dry bed: gravity x {:?}, terminal speed {:?}, stop below {:?} of it, steps {}..{}\n",
+            opts.gravity_factor, opts.terminal_speed, opts.stop_fraction, opts.min_steps, opts.max_steps
+        ),
+        BedMethod::Wet => format!(
+            "{case_text}\n# wet bed: in the fluid, stop below mean speed {:?}, checked every {}, steps {}..{}\n",
+            wet.speed, wet.check_every, wet.min_steps, wet.max_steps
+        ),
+    };
     let dir = cache.join("beds").join(format!("{name}-{:016x}", fnv1a(&inputs)));
     let file = dir.join("bed.json");
     if let Ok(text) = std::fs::read_to_string(&file) {
@@ -396,10 +439,27 @@ pub fn bed(
             }
         }
     }
-    if !quiet {
-        eprintln!("bed: placing {} particles and settling them dry (no fluid) …", c.particle_count());
-    }
-    let b = dry_bed(&key_case, DryBedOptions { progress_every: if quiet { 0 } else { 250 }, ..opts })?;
+    let b = match method {
+        BedMethod::Dry(opts) => {
+            if !quiet {
+                eprintln!("bed: placing {} particles and settling them dry (no fluid) …", c.particle_count());
+            }
+            dry_bed(&key_case, DryBedOptions { progress_every: if quiet { 0 } else { 250 }, ..opts })?
+        }
+        BedMethod::Wet => {
+            if !quiet {
+                eprintln!(
+                    "bed: placing {} particles and settling them in the fluid under the case's gravity (stop below \
+                     mean speed {:.1e}, steps {}..{}) …",
+                    c.particle_count(),
+                    wet.speed,
+                    wet.min_steps,
+                    wet.max_steps
+                );
+            }
+            wet_bed(&key_case, SettleOptions { quiet, ..wet })?
+        }
+    };
     if !quiet {
         eprintln!(
             "bed: {} after {} steps ({:.0} s), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
@@ -411,7 +471,7 @@ pub fn bed(
             b.max_speed
         );
     }
-    let rec = BedRecord { inputs, bed: b };
+    let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b };
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;

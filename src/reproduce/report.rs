@@ -667,7 +667,12 @@ fn report_md(
     );
     let _ = writeln!(
         m,
-        "- Bed: placed at random and settled dry in {} steps ({}), mean centre height {:.2} ({:.3} H); {}.",
+        "- Bed: placed at random and settled {} in {} steps ({}), mean centre height {:.2} ({:.3} H); {}.",
+        if bed.wet {
+            "in the fluid under the case's gravity"
+        } else {
+            "dry (no fluid: amplified gravity against a linear drag)"
+        },
         bed.bed.steps,
         if bed.bed.settled { "settled" } else { "NOT settled: step limit" },
         bed.bed.mean_height,

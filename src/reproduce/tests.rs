@@ -94,3 +94,37 @@ fn contact_overrides_change_only_the_stirred_runs_contacts() {
     assert!(check_contact_substeps(0).unwrap_err().contains("[1, 1024]"));
     assert!(check_contact_substeps(1025).is_err());
 }
+
+/// The wet bed's stopping rule follows the Stokes settling speed, the same at every scale
+/// (`g ∝ 1/s`, `d ∝ s`, `ν ∝ s`), and its step window grows with the tank's height.
+#[test]
+fn wet_settling_scales_with_the_case() {
+    for pc in paper_cases() {
+        let full = pc.case().unwrap();
+        let base = wet_settling(&scale_case(&full, 1.0).unwrap());
+        for s in [0.25, 0.5] {
+            let c = scale_case(&full, s).unwrap();
+            let w = wet_settling(&c);
+            let r = &c.random_particles[0];
+            let v_s = (r.density - 1.0) * -c.gravity.unwrap()[2] * r.diameter * r.diameter / (18.0 * c.nu());
+            assert!((w.speed - 0.02 * v_s).abs() <= 1e-12 * v_s, "{} at s = {s}", pc.name);
+            assert!(
+                (w.speed - base.speed).abs() <= 1e-9 * base.speed,
+                "{}: {} vs {}",
+                pc.name,
+                w.speed,
+                base.speed
+            );
+            assert_eq!(w.min_steps, (c.domain.nz as f64 / v_s).ceil() as u64);
+            assert_eq!(w.max_steps, 4 * w.min_steps);
+        }
+    }
+}
+
+/// A bed cached before `--bed` existed (no `wet` key) reads as dry.
+#[test]
+fn old_bed_records_read_as_dry() {
+    let json = r#"{"inputs":"x","particles":[],"steps":3,"mean_speed":0.0,"max_speed":0.0,"settled":true,"mean_height":1.0,"seconds":0.5}"#;
+    let rec: BedRecord = serde_json::from_str(json).unwrap();
+    assert!(!rec.wet);
+}
