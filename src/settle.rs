@@ -351,8 +351,7 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
     let markers: Vec<&[Marker]> = markers.iter().map(|m| m.as_slice()).collect();
     let grid = case.grid();
     let walls = Walls::closed_box([grid.nx, grid.ny, grid.nz]);
-    let params = contacts.params();
-    let mut ct = Contacts::new(params, walls, &bodies, &markers)
+    let mut ct = Contacts::new(contacts, walls, &bodies, &markers)
         .map_err(|e| anyhow::anyhow!("dry bed: contact parameters: {e}"))?;
     let g_dry = Vec3::new(g[0], g[1], g[2]) * opts.gravity_factor;
     let loads: Vec<(Vec3, f64, f64)> = inits

@@ -392,7 +392,7 @@ fn contact_section_errors_name_key_and_range() {
     let case = slurry::case::Case::from_file(&path).unwrap();
     let cp = case.coupling_params();
     assert_eq!(cp.contacts, Some(slurry::contact::ContactParams::default()));
-    assert_eq!(cp.contact_substeps, slurry::contact::DEFAULT_SUBSTEPS);
+    assert_eq!(cp.contacts.unwrap().substeps, slurry::contact::DEFAULT_SUBSTEPS);
 }
 
 // ---- impeller ----------------------------------------------------------------------------

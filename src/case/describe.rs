@@ -197,8 +197,7 @@ impl Case {
 
     /// The contact parameters (Table 1 unless changed) and the sub-steps.
     fn describe_contacts(&self, s: &mut String) {
-        let Some(section) = &self.contacts else { return };
-        let p = section.params();
+        let Some(p) = &self.contacts else { return };
         let on = |b: bool| if b { "on" } else { "off" };
         let _ = writeln!(
             s,
@@ -211,9 +210,9 @@ impl Case {
             p.delta_d,
             p.delta_sat,
             p.k_t,
-            on(section.elastic),
-            on(section.lubrication),
-            section.substeps
+            on(p.elastic),
+            on(p.lubrication),
+            p.substeps
         );
     }
 }

@@ -138,7 +138,7 @@ pub(super) fn check_unknown_keys(doc: &toml::Table) -> Result<(), CaseErrorKind>
             "initial" => keys::struct_fields::<InitialSection>(),
             "run" => keys::struct_fields::<RunSection>(),
             "ibm" => keys::struct_fields::<IbmSection>(),
-            "contacts" => keys::struct_fields::<ContactsSection>(),
+            "contacts" => keys::struct_fields::<crate::contact::ContactParams>(),
             "particles" => keys::struct_fields::<ParticleSpec>(),
             "random_particles" => keys::struct_fields::<RandomParticles>(),
             "impeller" => keys::struct_fields::<ImpellerSection>(),

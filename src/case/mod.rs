@@ -61,9 +61,7 @@ pub(crate) use errors::invalid;
 use errors::{check_unknown_keys, one_line, type_error};
 pub use errors::{CaseError, CaseErrorKind};
 pub use impeller::{ImpellerKindSpec, ImpellerSection, ImpellerSetup, PumpingSpec};
-pub use particles::{
-    ContactsSection, IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind,
-};
+pub use particles::{IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind};
 pub use schema::{
     default_mach_limit, BoundarySection, BoundarySpec, Case, CollisionModel, DomainSection, FluidSection,
     InitialKind, InitialSection, Precision, RunSection,

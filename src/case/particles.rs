@@ -15,7 +15,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::placement::{self, BoxGeometry, CellList, RandomRequest, ShapeDims};
-pub use super::sections::{ContactsSection, IbmSection};
+pub use super::sections::IbmSection;
 use super::{fmt_vec, invalid, mach, BoundarySpec, Case, CaseErrorKind};
 use crate::coupling::{CouplingParams, DEFAULT_RETRACTION};
 use crate::lattice::{Face, CS2};
@@ -344,8 +344,7 @@ impl Case {
             marker_spacing: ibm.marker_spacing,
             retraction: ibm.retraction,
             gravity: self.gravity(),
-            contacts: self.contacts.map(|c| c.params()),
-            contact_substeps: self.contacts.map_or(crate::contact::DEFAULT_SUBSTEPS, |c| c.substeps),
+            contacts: self.contacts,
         }
     }
 
@@ -449,7 +448,7 @@ impl Case {
             }
         }
         if let Some(c) = self.contacts {
-            if let Err(e) = c.params().validate() {
+            if let Err(e) = c.validate() {
                 return Err(invalid(
                     format!("contacts.{}", e.name),
                     e.value,

@@ -29,7 +29,7 @@ pub struct Case {
     pub ibm: Option<IbmSection>,
     /// Contacts between particles and with the walls (`[contacts]`; absent = none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub contacts: Option<ContactsSection>,
+    pub contacts: Option<crate::contact::ContactParams>,
     /// Particles given one by one (`[[particles]]`).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub particles: Vec<ParticleSpec>,

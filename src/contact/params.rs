@@ -1,10 +1,16 @@
 //! Contact parameters (the paper's Table 1) and the box walls.
 
+use serde::{Deserialize, Serialize};
+
 use crate::rigid::Vec3;
 
-/// The parameters of the contact model (Derksen 2020, Table 1; lattice units), and two
-/// switches that turn its parts on or off (verification: an elastic-only collision must conserve
-/// energy).
+/// The parameters of the contact model (Derksen 2020, Table 1; lattice units), two switches
+/// that turn its parts on or off (verification: an elastic-only collision must conserve
+/// energy), and the sub-cycling (sub-steps, lubrication limiter).
+///
+/// It is also the case file's `[contacts]` section, as it stands: every key optional (Table 1
+/// and the defaults below), unknown keys refused; its ranges are checked by
+/// [`ContactParams::validate`] and, for `substeps`, by the case (1 … 1024).
 ///
 /// With `δ` the normal and `δ_λ` the tangential distance of a marker pair and
 /// `w = (λ − δ_λ)/λ` (module [`super`]):
@@ -13,7 +19,8 @@ use crate::rigid::Vec3;
 /// elastic (δ < δ0, δ_λ < λ):        F_el = −k (δ0 − δ) w n̂
 /// lubrication (δ* < δ_d, δ_λ < λ):  F_lub = (kⁿ Δuⁿ + kᵗ Δuᵗ)(1/δ* − 1/δ_d) w,   δ* = max(δ, δ_sat)
 /// ```
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct ContactParams {
     /// Spring constant `k` of the elastic force (Table 1: 5.0).
     pub k: f64,
@@ -38,6 +45,10 @@ pub struct ContactParams {
     /// `h` is multiplied by `min(1, 0.9/(h (ρ_a + ρ_b)))`, `ρ` a bound of each body's damping
     /// rate. `false`: the explicit law, which needs `h · damping_rate < 2`.
     pub lubrication_limiter: bool,
+    /// Contact sub-steps per fluid step (≥ 1; default [`super::DEFAULT_SUBSTEPS`]; module
+    /// [`super`], "Stability analysis"). Used by whoever sub-cycles the bodies
+    /// ([`super::step_bodies`]).
+    pub substeps: usize,
 }
 
 impl Default for ContactParams {
@@ -54,6 +65,7 @@ impl Default for ContactParams {
             elastic: true,
             lubrication: true,
             lubrication_limiter: false,
+            substeps: super::DEFAULT_SUBSTEPS,
         }
     }
 }

@@ -47,11 +47,12 @@ impl<T: Real> Coupled<T> {
         }
         // `change` holds the last step's velocity change until the bodies have moved.
         let (loads, shell, last) = (&self.loads, &self.shell, &self.change);
+        let substeps = self.contacts.as_ref().map_or(1, |c| c.params().substeps);
         let averaged = step_bodies(
             self.contacts.as_mut(),
             &mut self.bodies,
             &self.contact_markers,
-            self.contact_substeps,
+            substeps,
             |b: usize, body: &RigidBody| {
                 let l = &loads[b];
                 shell_implicit(

@@ -152,7 +152,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use crate::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
+use crate::contact::{ContactParams, Contacts, Walls};
 use crate::ibm::{DeltaKernel, StencilError, Stencils};
 use crate::lattice::Face;
 use crate::lbm::{Fluid, FluidError, FluidState, Real};
@@ -185,11 +185,9 @@ pub struct CouplingParams {
     /// `(ρ_p − ρ_f) V g`; the fluid itself is not forced by it (its hydrostatic pressure does
     /// not move anything in a closed box).
     pub gravity: [f64; 3],
-    /// Contacts between bodies and with the box walls (the paper's Table 1), or `None`.
+    /// Contacts between bodies and with the box walls (the paper's Table 1), or `None`; with
+    /// their sub-steps per fluid step ([`ContactParams::substeps`], ≥ 1).
     pub contacts: Option<ContactParams>,
-    /// Contact sub-steps per fluid step (≥ 1; see [`crate::contact`] for the stability
-    /// analysis behind [`DEFAULT_SUBSTEPS`]).
-    pub contact_substeps: usize,
     /// Retraction `r_d` of the forcing markers (lattice units, `≥ 0`): the immersed boundary
     /// forces the fluid on every body's surface moved inward by `r_d`
     /// ([`Shape::retracted_markers`]), so that its hydrodynamic size is the input size
@@ -206,7 +204,7 @@ pub const DEFAULT_RETRACTION: f64 = 0.36;
 
 impl Default for CouplingParams {
     /// The default kernel, one forcing iteration, [`DEFAULT_MARKER_SPACING`], no gravity, no
-    /// contacts ([`DEFAULT_SUBSTEPS`] sub-steps once they are turned on), the calibrated
+    /// contacts ([`crate::contact::DEFAULT_SUBSTEPS`] sub-steps once they are turned on), the calibrated
     /// [`DEFAULT_RETRACTION`].
     fn default() -> Self {
         Self {
@@ -215,7 +213,6 @@ impl Default for CouplingParams {
             marker_spacing: DEFAULT_MARKER_SPACING,
             gravity: [0.0; 3],
             contacts: None,
-            contact_substeps: DEFAULT_SUBSTEPS,
             retraction: DEFAULT_RETRACTION,
         }
     }
@@ -443,7 +440,6 @@ pub struct Coupled<T: Real> {
     dense_override: Option<bool>,
     timings: StepTimings,
     contacts: Option<Contacts>,
-    contact_substeps: usize,
 }
 
 impl<T: Real> Coupled<T> {
@@ -512,8 +508,8 @@ impl<T: Real> Coupled<T> {
             .collect();
         let contacts = match params.contacts {
             Some(cp) => {
-                if params.contact_substeps == 0 {
-                    return Err(CouplingError::Contacts("contact_substeps must be at least 1".into()));
+                if cp.substeps == 0 {
+                    return Err(CouplingError::Contacts("contact substeps must be at least 1".into()));
                 }
                 let g = fluid.grid();
                 let walls = Walls::bounce_back([g.nx, g.ny, g.nz], periodic.map(|p: bool| !p));
@@ -555,7 +551,6 @@ impl<T: Real> Coupled<T> {
             dense_override: None,
             timings: StepTimings::default(),
             contacts,
-            contact_substeps: params.contact_substeps,
             markers,
             contact_markers,
             retraction: params.retraction,

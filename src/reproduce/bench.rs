@@ -136,10 +136,8 @@ pub fn bench_case(
     let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
     bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
     let mut params = case.coupling_params();
-    if let Some(n) = contact.substeps {
-        params.contact_substeps = n;
-    }
     if let Some(p) = params.contacts.as_mut() {
+        p.substeps = contact.substeps.unwrap_or(p.substeps);
         p.lubrication_limiter |= contact.limiter;
     }
     let mut c =
@@ -196,7 +194,7 @@ pub fn bench_case(
         interacting_pairs: c.contacts().map_or(0, |k| k.stats().marker_pairs),
         max_damping_rate,
         max_spring_rate,
-        contact_substeps: params.contact_substeps,
+        contact_substeps: params.contacts.map_or(0, |p| p.substeps),
         lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
     })
 }

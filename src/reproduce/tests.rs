@@ -87,7 +87,7 @@ fn contact_overrides_change_only_the_stirred_runs_contacts() {
     o.apply(&mut changed);
     let k = changed.contacts.unwrap();
     assert_eq!((k.substeps, k.lubrication_limiter), (2, true));
-    assert_eq!(changed.contacts.map(|k| k.params().k), c.contacts.map(|k| k.params().k));
+    assert_eq!(changed.contacts.map(|k| k.k), c.contacts.map(|k| k.k));
     assert_ne!(changed.fingerprint(), c.fingerprint(), "a resume with other contacts must be refused");
     assert!(o.describe().unwrap().contains("2 sub-steps per fluid step, lubrication limiter on"));
     assert!(check_contact_substeps(1).is_ok() && check_contact_substeps(1024).is_ok());
