@@ -4,7 +4,8 @@
 //! (the last block may be shorter) and, after step 0 and each block, checks its health,
 //! appends a row to `timeseries.csv` and updates the progress bar. Nothing else happens
 //! between output points: the stepping loop does no I/O. At the end it writes `fields.h5`
-//! with `fields.xmf` beside it, the normalised case as `case.toml`, and `summary.json`.
+//! with `fields.xmf` beside it, the normalised case as `case.toml`, and `summary.json`; at
+//! each step of `run.snapshots` the fields of that step as `fields-STEP.h5`/`.xmf`.
 //!
 //! With `run.checkpoint_every`, the complete fluid state is written to `checkpoint.h5`
 //! (atomically, after a health check) every that many steps; `--resume` restores it after a
@@ -62,6 +63,16 @@ pub mod files {
     pub const CHECKPOINT: &str = "checkpoint.h5";
     /// Particle histories (see [`crate::io::particles`]); only for cases with particles.
     pub const PARTICLES_H5: &str = "particles.h5";
+
+    /// The fields of `[run] snapshots` step `step`: `fields-STEP.h5` (9 digits).
+    pub fn snapshot_h5(step: u64) -> String {
+        format!("fields-{step:09}.h5")
+    }
+
+    /// The XDMF description of [`snapshot_h5`]`(step)`.
+    pub fn snapshot_xmf(step: u64) -> String {
+        format!("fields-{step:09}.xmf")
+    }
 }
 
 /// Options that do not change the physics.
@@ -403,7 +414,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             let step = fluid.time();
             let output_due = step.is_multiple_of(output_every) || step == total;
             let checkpoint_due = checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
-            if output_due || checkpoint_due {
+            let snapshot_due = self.case.run.snapshots.contains(&step);
+            if output_due || checkpoint_due || snapshot_due {
                 let health = fluid.health(mach_limit);
                 if !health.is_ok() {
                     progress.abandon();
@@ -422,6 +434,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                     status = self.write_output_row(step, health.max_mach, block_mlups)?;
                     stepped.rows += 1;
                 }
+                // Before the checkpoint of the same step, so that a resume from it finds it.
+                if snapshot_due && self.resumed_at != Some(step) {
+                    self.write_fields(&files::snapshot_h5(step), &files::snapshot_xmf(step))?;
+                }
                 if checkpoint_due && self.resumed_at != Some(step) {
                     self.write_checkpoint()?;
                 }
@@ -433,6 +449,9 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             let mut next = (step / output_every + 1) * output_every;
             if let Some(c) = checkpoint_every {
                 next = next.min((step / c + 1) * c);
+            }
+            if let Some(&s) = self.case.run.snapshots.iter().filter(|&&s| s > step).min() {
+                next = next.min(s);
             }
             let block = next.min(total) - step;
             let block_start = Instant::now();
@@ -498,6 +517,20 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         Ok(status)
     }
 
+    /// The density and velocity of the present step as `h5_name` (HDF5) with its XDMF
+    /// description `xmf_name`, in the output directory, each written atomically.
+    fn write_fields(&self, h5_name: &str, xmf_name: &str) -> anyhow::Result<()> {
+        let fluid = self.solver.fluid();
+        let grid = self.case.grid();
+        let (rho, u) = fluid.fields();
+        let h5 = self.out_dir.join(h5_name);
+        write_fields_h5(&h5, grid, fluid.time(), &rho, &u)
+            .with_context(|| format!("cannot write {}", h5.display()))?;
+        let xmf = self.out_dir.join(xmf_name);
+        write_xdmf(&xmf, grid, fluid.time(), h5_name)
+            .with_context(|| format!("cannot write {}", xmf.display()))
+    }
+
     /// The checkpoint of the present (even) step, with the bodies' states when coupled.
     fn write_checkpoint(&self) -> anyhow::Result<()> {
         match &self.solver {
@@ -520,16 +553,9 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         if let Some(history) = self.history.as_mut() {
             history.finish().with_context(|| format!("cannot merge {}", self.history_path.display()))?;
         }
+        self.write_fields(files::FIELDS_H5, files::FIELDS_XMF)?;
         let fluid = self.solver.fluid();
         let grid = self.case.grid();
-        let (rho, u) = fluid.fields();
-        let fields_path = self.out_dir.join(files::FIELDS_H5);
-        write_fields_h5(&fields_path, grid, fluid.time(), &rho, &u)
-            .with_context(|| format!("cannot write {}", fields_path.display()))?;
-        let xdmf_path = self.out_dir.join(files::FIELDS_XMF);
-        write_xdmf(&xdmf_path, grid, fluid.time(), files::FIELDS_H5)
-            .with_context(|| format!("cannot write {}", xdmf_path.display()))?;
-
         let final_mass = fluid.total_mass();
         let step_seconds = stepped.step_time.as_secs_f64();
         let initial_mass = stepped.initial_mass;

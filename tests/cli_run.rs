@@ -319,3 +319,50 @@ fn settle_writes_a_reusable_bed() {
         "wet_bed {wet_pos:?} differs from slurry settle's bed {pa:?}"
     );
 }
+
+/// `[run] snapshots`: the fields of each listed step are written beside the last step's, as
+/// `fields-STEP.h5`/`.xmf`, and are those of a run stopped at that step, bit for bit (also
+/// at a step that is neither an output nor a checkpoint step).
+#[test]
+fn snapshots_are_the_fields_of_their_steps() {
+    let dir = tempfile::tempdir().unwrap();
+    let text =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/poiseuille.toml"))
+            .unwrap();
+    let head = text.split("[run]").next().unwrap();
+    let run = |name: &str, run: &str| {
+        let case = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&case, format!("{head}[run]\n{run}\n")).unwrap();
+        let out = dir.path().join(name);
+        let o = slurry(&["run", case.to_str().unwrap(), "--out", out.to_str().unwrap(), "--quiet"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        out
+    };
+    let long = run("long", "steps = 100\noutput_every = 50\ncheckpoint_every = 40\nsnapshots = [37, 64]");
+    let read = |p: &Path| -> (Vec<f64>, Vec<f64>, u64) {
+        let f = hdf5::File::open(p).unwrap();
+        let step = f.attr("time_step").unwrap().read_scalar().unwrap();
+        (
+            f.dataset("density").unwrap().read_raw().unwrap(),
+            f.dataset("velocity").unwrap().read_raw().unwrap(),
+            step,
+        )
+    };
+    for step in [37u64, 64] {
+        let short = run(&format!("to{step}"), &format!("steps = {step}\noutput_every = {step}"));
+        let (a, b) = (read(&long.join(format!("fields-{step:09}.h5"))), read(&short.join("fields.h5")));
+        assert_eq!(a.2, step);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert!(bits(&a.0) == bits(&b.0) && bits(&a.1) == bits(&b.1), "snapshot {step} differs");
+        let xmf = std::fs::read_to_string(long.join(format!("fields-{step:09}.xmf"))).unwrap();
+        assert!(xmf.contains(&format!("fields-{step:09}.h5:/velocity")), "{xmf}");
+    }
+    assert_no_temp_files(&long);
+    // Outside the run: refused, naming the key and the range.
+    let case = dir.path().join("bad.toml");
+    std::fs::write(&case, format!("{head}[run]\nsteps = 100\noutput_every = 50\nsnapshots = [101]\n"))
+        .unwrap();
+    let o = slurry(&["check", case.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("run.snapshots") && stderr(&o).contains("101"), "{}", stderr(&o));
+}

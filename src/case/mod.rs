@@ -200,6 +200,7 @@ impl Case {
         let mut c = self.clone();
         c.run.steps = 0;
         c.run.checkpoint_every = None;
+        c.run.snapshots.clear();
         toml::to_string(&c).unwrap_or_default()
     }
 

@@ -226,7 +226,7 @@ impl Default for InitialSection {
 }
 
 /// `[run]`: how long, how often to record, and when to stop for numerical trouble.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunSection {
     /// Number of time steps (≥ 1).
@@ -240,6 +240,12 @@ pub struct RunSection {
     /// `slurry run --resume` continues from it bitwise identically.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checkpoint_every: Option<u64>,
+    /// Steps at which the whole fields are written besides the last step's, as
+    /// `fields-STEP.h5` with `fields-STEP.xmf` (the layout of `fields.h5`; STEP with 9
+    /// digits), e.g. for figures at chosen times (each `1 ≤ … ≤ steps`; default none). Not
+    /// part of the run's fingerprint: a resume may add some.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub snapshots: Vec<u64>,
 }
 
 /// The default Mach limit, 0.3.

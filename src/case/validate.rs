@@ -193,6 +193,13 @@ impl Case {
                 ));
             }
         }
+        if let Some(&s) = r.snapshots.iter().find(|&&s| s < 1 || s > r.steps) {
+            return Err(invalid(
+                "run.snapshots",
+                s,
+                format!("must hold steps with 1 <= step <= run.steps = {}", r.steps),
+            ));
+        }
         if !(r.mach_limit.is_finite() && r.mach_limit > 0.0 && r.mach_limit <= 1.0) {
             return Err(invalid(
                 "run.mach_limit",

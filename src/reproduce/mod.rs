@@ -343,6 +343,23 @@ pub fn schedule(c: &Case, revolutions: f64) -> anyhow::Result<Schedule> {
     })
 }
 
+/// Revolutions after the impeller's start at which the stirred run writes its fields (the
+/// paper's Figures 3 and 4: "10 and 90 disk revolutions after startup").
+pub const SNAPSHOT_REVOLUTIONS: [f64; 2] = [10.0, 90.0];
+
+impl Schedule {
+    /// The output steps nearest [`SNAPSHOT_REVOLUTIONS`] that the run reaches.
+    pub fn snapshot_steps(&self) -> Vec<u64> {
+        SNAPSHOT_REVOLUTIONS
+            .iter()
+            .map(|r| {
+                (r * self.steps_per_revolution / self.output_every as f64).round() as u64 * self.output_every
+            })
+            .filter(|&s| s >= 1 && s <= self.steps)
+            .collect()
+    }
+}
+
 /// FNV-1a, 64 bit: a stable hash for cache keys (the same on every platform and run).
 fn fnv1a(text: &str) -> u64 {
     text.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
@@ -417,6 +434,7 @@ pub fn bed(
         output_every: 1,
         mach_limit: crate::case::default_mach_limit(),
         checkpoint_every: None,
+        snapshots: Vec::new(),
     };
     let case_text = toml::to_string(&key_case.normalised()).context("cannot serialise the case")?;
     let wet = wet_settling(&key_case);
@@ -487,6 +505,7 @@ pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
     s.run.steps = sched.steps;
     s.run.output_every = sched.output_every;
     s.run.checkpoint_every = Some(sched.checkpoint_every);
+    s.run.snapshots = sched.snapshot_steps();
     s
 }
 

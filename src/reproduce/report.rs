@@ -1,14 +1,15 @@
 //! Statistics, figures and `report.md` of a reproduction run.
 //!
 //! Everything here is computed from the run's files (`run/timeseries.csv`,
-//! `run/particles.h5`, `run/fields.h5`), deterministically, and written atomically:
+//! `run/particles.h5`, `run/fields.h5` and its `fields-STEP.h5` snapshots), deterministically, and written atomically:
 //!
 //! | file | contents |
 //! |---|---|
 //! | `statistics.h5` | ⟨z_p⟩/H series, profiles, orientation pdfs, power averages ([`crate::stats`]) |
 //! | `statistics.json` | the scalar results and the comparison with the paper |
 //! | `midplane.h5`, `midplane.xmf` | the last step's velocity on the vertical plane through the axis (ParaView) |
-//! | `fig03_midplane` or `fig04_midplane` `.png/.svg` | the paper's Figure 3 (disk) or 4 (PBT): \|u\|/v_tip on that plane with the cylinders' sections |
+//! | `fig03_midplane` or `fig04_midplane` `.png/.svg` | the paper's Figure 3 (disk) or 4 (PBT): \|u\|/v_tip on that plane with the cylinders' sections, at the end |
+//! | `fig04_midplane_rev010`, `…_rev090` | the same at 10 and 90 revolutions after the impeller's start, as in the paper (from the run's `fields-STEP.h5` snapshots, when the run reached them) |
 //! | `fig05_mean_height` | ⟨z_p⟩/H against revolutions |
 //! | `fig06_volume_fraction` | time-averaged solids volume fraction against z/H |
 //! | `fig07_kinetic_energy` | k* of linear and rotational motion against z/H |
@@ -429,7 +430,16 @@ pub fn write_all(
     let j = setup.centre.y.round().clamp(0.0, (grid.ny - 1) as f64) as usize;
     let (speed, nx, nz) = midplane_speed(&run.join(crate::run::files::FIELDS_H5), j)?;
     write_midplane(out, &speed, nx, nz, j, summary.run.steps)?;
-    let figs = figures(name, paper, &tank, &hist, &speed, (nx, nz), j as f64, &timeseries, &st, out)?;
+    // The snapshots the run wrote (`[run] snapshots`; a run resumed by an older binary may lack some).
+    let mut snapshots = Vec::new();
+    for &step in &case.run.snapshots {
+        let path = run.join(crate::run::files::snapshot_h5(step));
+        if path.exists() {
+            snapshots.push((step, midplane_speed(&path, j)?.0));
+        }
+    }
+    let figs =
+        figures(name, paper, &tank, &hist, &speed, (nx, nz), j as f64, &snapshots, &timeseries, &st, out)?;
     let md = report_md(name, case, paper, summary, bed, &results, &figs);
     let p = out.join("report.md");
     atomic_write_bytes(&p, md.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
@@ -447,6 +457,60 @@ fn points(p: &stats::Profile) -> Vec<(f64, f64)> {
     p.z_over_h.iter().zip(&p.value).map(|(z, v)| (*v, *z)).collect()
 }
 
+/// The liquid speed on the mid-plane `y = y` (`nx × nz`, x fastest).
+#[derive(Clone, Copy)]
+struct MidPlane<'a> {
+    speed: &'a [f64],
+    nx: usize,
+    nz: usize,
+    y: f64,
+}
+
+/// Writes `stem.png` and `stem.svg`: `|u|/v_tip` on the mid-plane with the sections of the
+/// cylinders of `frame` (Figure 3 or 4 of the paper).
+fn midplane_figure(
+    out: &Path,
+    stem: &str,
+    tag: &str,
+    tank: &Tank,
+    hist: &crate::io::ParticleHistory,
+    frame: &crate::io::ParticleFrame,
+    plane: &MidPlane<'_>,
+) -> anyhow::Result<()> {
+    let outlines: Vec<Vec<(f64, f64)>> = frame
+        .position
+        .iter()
+        .zip(&frame.quaternion)
+        .zip(&hist.statics)
+        .filter_map(|((c, q), s)| {
+            let q =
+                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
+            let a = q * nalgebra::Vector3::z();
+            plot::cylinder_section(*c, [a.x, a.y, a.z], s.diameter, s.length, plane.y, 48)
+        })
+        .map(|poly| poly.into_iter().map(|(x, z)| ((x + 0.5) / tank.t, (z + 0.5) / tank.t)).collect())
+        .collect();
+    let scaled: Vec<f64> = plane.speed.iter().map(|u| u / tank.tip_speed).collect();
+    let revs = frame.step as f64 / tank.steps_per_rev;
+    let title = format!("{tag}: |u|/v_tip on the mid-plane, {revs:.1} revolutions");
+    let img = FieldImage {
+        values: &scaled,
+        nx: plane.nx,
+        ny: plane.nz,
+        extent: (0.0, plane.nx as f64 / tank.t, 0.0, plane.nz as f64 / tank.t),
+        vmin: 0.0,
+        vmax: 1.0,
+        title: &title,
+        colorbar_label: "|u| / v_tip",
+        x_label: "x / T",
+        y_label: "z / T",
+        outlines: &outlines,
+    };
+    plot::write_field_png(&out.join(format!("{stem}.png")), &img, FieldSize::MapWidth(700))?;
+    plot::write_field_svg(&out.join(format!("{stem}.svg")), &img, FieldSize::MapWidth(700))?;
+    Ok(())
+}
+
 /// The paper's Figures 3/4–10 for this run (PNG and SVG); returns `(stem, caption)`.
 #[allow(clippy::too_many_arguments)]
 fn figures(
@@ -457,6 +521,7 @@ fn figures(
     speed: &[f64],
     (nx, nz): (usize, usize),
     plane_y: f64,
+    snapshots: &[(u64, Vec<f64>)],
     timeseries: &TimeSeries,
     st: &stats::Stats,
     out: &Path,
@@ -465,48 +530,30 @@ fn figures(
     let ld = paper.aspect_ratio;
     let tag = format!("{name} (ℓ/d = {ld})");
 
-    // Figure 3 (disk) / 4 (PBT): |u|/v_tip on the mid-plane with the cylinders' sections.
+    // Figure 3 (disk) / 4 (PBT): |u|/v_tip on the mid-plane with the cylinders' sections, at
+    // the end of the run and at the snapshots the run wrote (the paper's 10 and 90 revolutions).
+    let number = if paper.impeller == "disk" { 3 } else { 4 };
+    let stem = format!("fig{number:02}_midplane");
     let last = hist.frames.last().expect("frames checked above");
-    let outlines: Vec<Vec<(f64, f64)>> = last
-        .position
-        .iter()
-        .zip(&last.quaternion)
-        .zip(&hist.statics)
-        .filter_map(|((c, q), s)| {
-            let q =
-                nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(q[0], q[1], q[2], q[3]));
-            let a = q * nalgebra::Vector3::z();
-            plot::cylinder_section(*c, [a.x, a.y, a.z], s.diameter, s.length, plane_y, 48)
-        })
-        .map(|poly| poly.into_iter().map(|(x, z)| ((x + 0.5) / tank.t, (z + 0.5) / tank.t)).collect())
-        .collect();
-    let scaled: Vec<f64> = speed.iter().map(|u| u / tank.tip_speed).collect();
-    let revs = last.step as f64 / tank.steps_per_rev;
-    let title = format!("{tag}: |u|/v_tip on the mid-plane, {revs:.1} revolutions");
-    let img = FieldImage {
-        values: &scaled,
-        nx,
-        ny: nz,
-        extent: (0.0, nx as f64 / tank.t, 0.0, nz as f64 / tank.t),
-        vmin: 0.0,
-        vmax: 1.0,
-        title: &title,
-        colorbar_label: "|u| / v_tip",
-        x_label: "x / T",
-        y_label: "z / T",
-        outlines: &outlines,
-    };
-    let stem = if paper.impeller == "disk" { "fig03_midplane" } else { "fig04_midplane" };
-    plot::write_field_png(&out.join(format!("{stem}.png")), &img, FieldSize::MapWidth(700))?;
-    plot::write_field_svg(&out.join(format!("{stem}.svg")), &img, FieldSize::MapWidth(700))?;
+    let plane = MidPlane { speed, nx, nz, y: plane_y };
+    midplane_figure(out, &stem, &tag, tank, hist, last, &plane)?;
     figs.push((
-        stem.to_string(),
+        stem.clone(),
         format!(
-            "Figure {}: liquid speed over the tip speed on the vertical plane through the axis at the end of the run, \
-             with the cylinders' sections",
-            if paper.impeller == "disk" { 3 } else { 4 }
+            "Figure {number}: liquid speed over the tip speed on the vertical plane through the axis at the end of the \
+             run, with the cylinders' sections"
         ),
     ));
+    for (step, speed) in snapshots {
+        let Some(frame) = hist.frames.iter().find(|f| f.step == *step) else { continue };
+        let revs = *step as f64 / tank.steps_per_rev;
+        let stem = format!("{stem}_rev{:03.0}", revs);
+        midplane_figure(out, &stem, &tag, tank, hist, frame, &MidPlane { speed, ..plane })?;
+        figs.push((
+            stem,
+            format!("Figure {number} at {revs:.0} revolutions after the impeller's start, as in the paper"),
+        ));
+    }
 
     // Figure 5.
     let plot5 = LinePlot {

@@ -128,3 +128,21 @@ fn old_bed_records_read_as_dry() {
     let rec: BedRecord = serde_json::from_str(json).unwrap();
     assert!(!rec.wet);
 }
+
+/// The stirred run writes its fields at the output steps nearest 10 and 90 revolutions after
+/// the impeller's start (the paper's Figures 3 and 4), those it reaches.
+#[test]
+fn snapshots_at_the_papers_revolutions() {
+    let c = scale_case(&paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25).unwrap();
+    let long = schedule(&c, 100.0).unwrap();
+    let s = long.snapshot_steps();
+    assert_eq!(s.len(), 2);
+    for (step, revs) in s.iter().zip(SNAPSHOT_REVOLUTIONS) {
+        assert!(step.is_multiple_of(long.output_every));
+        assert!(
+            (*step as f64 / long.steps_per_revolution - revs).abs()
+                <= long.output_every as f64 / long.steps_per_revolution
+        );
+    }
+    assert_eq!(schedule(&c, 30.0).unwrap().snapshot_steps(), s[..1]);
+}
