@@ -52,9 +52,14 @@ struct ReproduceArgs {
     /// The case: disk-ld1, disk-ld2, disk-ld4, pbt-ld1, pbt-ld2 or pbt-ld4.
     #[arg(required_unless_present = "all", conflicts_with = "all")]
     case: Option<String>,
-    /// All six cases, one after the other.
+    /// All six cases, one after the other, then their cross-case summary (`OUT/summary/`:
+    /// Figures 5–9 with the three ℓ/d of each impeller on one plot, and the table).
     #[arg(long)]
     all: bool,
+    /// With --all: run nothing, only redraw the cross-case summary from the cases already
+    /// run under the output directory (e.g. after one was resumed on its own).
+    #[arg(long, requires = "all")]
+    summary_only: bool,
     /// Scale s of the system, 0.25 ≤ s ≤ 1 (1: the paper's 251 × 251 × 240 with d = 12;
     /// 0.5: d = 6); default 0.25 (d = 3; the smallest at which the random placement fits the
     /// paper's particles in every case).
@@ -488,6 +493,12 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     let pool = thread_pool(a.threads)?;
     let root = PathBuf::from("target").join("reproduce");
     let cache = a.cache.clone().unwrap_or_else(|| root.join("cache"));
+    let summary_root = a.out.clone().unwrap_or_else(|| root.clone());
+    if a.summary_only {
+        let p = reproduce::summary::write_summary(&summary_root)?;
+        eprintln!("summary of the six cases in {}", p.display());
+        return Ok(());
+    }
     if !a.quiet {
         eprintln!(
             "{}",
@@ -530,6 +541,10 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             s.record.run.mlups,
             s.report.display()
         );
+    }
+    if a.all {
+        let p = reproduce::summary::write_summary(&summary_root)?;
+        eprintln!("summary of the six cases in {}", p.display());
     }
     Ok(())
 }

@@ -80,4 +80,18 @@ fn pbt_ld2_reduced_run() {
         }
     }
     insta::assert_snapshot!("pbt_ld2_scale_0.25", r.snapshot_text());
+
+    // The cross-case summary (`--all`) from this one case: its row with the values of its
+    // statistics, the five others not run, the PBT's figures and none for the disk.
+    let summary = slurry::reproduce::summary::write_summary(dir.path()).unwrap();
+    let md = std::fs::read_to_string(&summary).unwrap();
+    let row = md.lines().find(|l| l.starts_with("| pbt-ld2 |")).expect("a pbt-ld2 row");
+    assert!(
+        row.contains(&format!("*{:.3}*", r.mean_height)) && row.contains(&format!("*{:.3}*", r.po)),
+        "{row}"
+    );
+    assert_eq!(md.matches("| not run |").count(), 5, "{md}");
+    let fig = |f: &str| summary.parent().unwrap().join(f).is_file();
+    assert!(fig("fig05_mean_height_pbt.png") && fig("fig09_orientation_mobile_pbt.svg"));
+    assert!(!fig("fig05_mean_height_disk.png"));
 }

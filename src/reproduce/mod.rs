@@ -47,11 +47,15 @@
 //!    checkpoints every few revolutions (atomic), `--resume` bitwise identical, progress
 //!    with revolutions, `⟨z_p⟩/H`, `Po`, MLUPS and the time left.
 //! 3. **Statistics, figures, report** ([`report`]): from `timeseries.csv`, `particles.h5`
-//!    and `fields.h5`, deterministic, written atomically.
+//!    and `fields.h5` (and the field snapshots at 10 and 90 revolutions), deterministic,
+//!    written atomically.
+//! 4. With `--all`, the **cross-case summary** ([`summary`]): the paper's Figures 5–9 with
+//!    the three aspect ratios of each impeller on one plot, and one table of the six cases.
 
 pub mod bench;
 pub mod manifest;
 pub mod report;
+pub mod summary;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
