@@ -46,7 +46,7 @@ impl<T: Real> Coupled<T> {
             *s = (b.velocity, b.angular_velocity);
         }
         // `change` holds the last step's velocity change until the bodies have moved.
-        let (loads, shell, last) = (&self.loads, &self.shell, &self.change);
+        let (loads, shell, last) = (&self.loads, &self.shell, &self.velocity_change);
         let substeps = self.contacts.as_ref().map_or(1, |c| c.params().substeps);
         let averaged = step_bodies(
             self.contacts.as_mut(),
@@ -71,7 +71,7 @@ impl<T: Real> Coupled<T> {
                 l.contact_torque = a.torque;
             }
         }
-        for ((c, s), b) in self.change.iter_mut().zip(&self.start).zip(&self.bodies) {
+        for ((c, s), b) in self.velocity_change.iter_mut().zip(&self.start).zip(&self.bodies) {
             *c = if b.is_free() {
                 (b.velocity - s.0, b.angular_velocity - s.1)
             } else {

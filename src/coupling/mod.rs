@@ -329,7 +329,7 @@ pub struct BodyState {
     /// The body's time.
     pub time: f64,
     /// The last step's change of velocity and angular velocity ([`Coupled::velocity_change`]).
-    pub change: (Vec3, Vec3),
+    pub velocity_change: (Vec3, Vec3),
     /// The last step's averaged contact force and torque (the next step's shell reaction
     /// predicts with them).
     pub contact: (Vec3, Vec3),
@@ -432,7 +432,7 @@ pub struct Coupled<T: Real> {
     /// Per body, the forcing shell's mass and body-frame moments `(K_t, K_r)` (module docs).
     shell: Vec<(f64, Vec3)>,
     /// Per free body, its change of velocity and angular velocity (world) in the last step.
-    change: Vec<(Vec3, Vec3)>,
+    velocity_change: Vec<(Vec3, Vec3)>,
     /// Per body, its velocity and angular velocity at the start of the step's update.
     start: Vec<(Vec3, Vec3)>,
     /// Forces the band to be built (`Some(false)`) or the whole grid (`Some(true)`, no band
@@ -546,7 +546,7 @@ impl<T: Real> Coupled<T> {
             interior_nodes: vec![InteriorNodes::default(); n_bodies],
             loads: vec![BodyLoads::default(); n_bodies],
             shell: markers.iter().map(|m| shell_inertia(m)).collect(),
-            change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
+            velocity_change: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
             start: vec![(Vec3::zeros(), Vec3::zeros()); n_bodies],
             dense_override: None,
             timings: StepTimings::default(),
@@ -649,7 +649,7 @@ impl<T: Real> Coupled<T> {
     /// The change of velocity and angular velocity (world) of body `b` in the last step (the
     /// state of the implicit shell reaction, module docs; zero for bodies that are not free).
     pub fn velocity_change(&self, b: usize) -> (Vec3, Vec3) {
-        self.change[b]
+        self.velocity_change[b]
     }
 
     /// The state for a checkpoint (at an even time step; see [`Fluid::snapshot`]), with the
@@ -682,8 +682,12 @@ impl<T: Real> Coupled<T> {
             self.fluid.enable_force_field();
             self.fluid.clear_force_field();
         }
-        for (((b, c), l), st) in
-            self.bodies.iter_mut().zip(self.change.iter_mut()).zip(self.loads.iter_mut()).zip(&s.bodies)
+        for (((b, c), l), st) in self
+            .bodies
+            .iter_mut()
+            .zip(self.velocity_change.iter_mut())
+            .zip(self.loads.iter_mut())
+            .zip(&s.bodies)
         {
             *l = BodyLoads {
                 contact_force: st.contact.0,
@@ -701,7 +705,7 @@ impl<T: Real> Coupled<T> {
                 .with_orientation(Quat::new_unchecked(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
                 .with_velocities(st.velocity, st.angular_velocity);
             b.reset_load_history();
-            *c = st.change;
+            *c = st.velocity_change;
         }
         // The previous band := the whole grid, so that the next step clears all of it.
         self.band_prev.set_whole_grid();
@@ -712,7 +716,7 @@ impl<T: Real> Coupled<T> {
     fn snapshot_bodies(&self) -> Vec<BodyState> {
         self.bodies
             .iter()
-            .zip(&self.change)
+            .zip(&self.velocity_change)
             .zip(&self.loads)
             .map(|((b, c), l)| {
                 let q = b.orientation.into_inner();
@@ -722,7 +726,7 @@ impl<T: Real> Coupled<T> {
                     velocity: b.velocity,
                     angular_velocity: b.angular_velocity,
                     time: b.time,
-                    change: *c,
+                    velocity_change: *c,
                     contact: (l.contact_force, l.contact_torque),
                 }
             })

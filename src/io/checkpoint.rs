@@ -48,8 +48,8 @@ pub fn body_to_row(b: &BodyState) -> [f64; BODY_STATE_LEN] {
     r[7..10].copy_from_slice(&v(&b.velocity));
     r[10..13].copy_from_slice(&v(&b.angular_velocity));
     r[13] = b.time;
-    r[14..17].copy_from_slice(&v(&b.change.0));
-    r[17..20].copy_from_slice(&v(&b.change.1));
+    r[14..17].copy_from_slice(&v(&b.velocity_change.0));
+    r[17..20].copy_from_slice(&v(&b.velocity_change.1));
     r[20..23].copy_from_slice(&v(&b.contact.0));
     r[23..26].copy_from_slice(&v(&b.contact.1));
     r
@@ -64,7 +64,7 @@ pub fn body_from_row(r: &[f64; BODY_STATE_LEN]) -> BodyState {
         velocity: v(7),
         angular_velocity: v(10),
         time: r[13],
-        change: (v(14), v(17)),
+        velocity_change: (v(14), v(17)),
         contact: (v(20), v(23)),
     }
 }

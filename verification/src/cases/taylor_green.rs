@@ -83,14 +83,14 @@ fn solve(n: usize) -> Row {
     f.initialize(|x, y, _| initial(x, y, u0, k));
     let t_end = (n * n / 4) as u64;
     let dt = t_end / SAMPLES;
-    let (mut ts, mut le) = (Vec::new(), Vec::new());
+    let (mut times, mut log_energy) = (Vec::new(), Vec::new());
     for j in 1..=SAMPLES {
         f.run(dt);
         if j >= SAMPLES / 4 {
             let (_, u) = f.fields();
             let e: f64 = 0.5 * u.iter().map(|v| v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sum::<f64>();
-            ts.push(f.time() as f64);
-            le.push(e.ln());
+            times.push(f.time() as f64);
+            log_energy.push(e.ln());
         }
     }
     let steps = f.time();
@@ -104,7 +104,7 @@ fn solve(n: usize) -> Row {
         den.extend_from_slice(&u_init.map(|c| c * decay));
         init_u.extend_from_slice(&u_init);
     }
-    let slope = fit::line(&ts, &le).1;
+    let slope = fit::line(&times, &log_energy).1;
     // Projection on the initial mode: amplitude error and the time shift it is equivalent to.
     let amp =
         num.iter().zip(&init_u).map(|(p, q)| p * q).sum::<f64>() / init_u.iter().map(|q| q * q).sum::<f64>();
