@@ -100,6 +100,11 @@ struct ReproduceArgs {
     /// 20 min at the default scale, 16× that at s = 1/2). Each is cached separately.
     #[arg(long, value_enum, default_value_t = BedArg::Dry)]
     bed: BedArg,
+    /// Stop the stirred run when the Mach number |u|/c_s exceeds this anywhere, 0 < L ≤ 1
+    /// (default 0.3). Only a health check: a run it stopped can be resumed (--resume) with a
+    /// higher one, and the numbers do not depend on it.
+    #[arg(long, value_name = "L", allow_negative_numbers = true)]
+    mach_limit: Option<f64>,
 }
 
 /// `slurry reproduce --bed`.
@@ -485,6 +490,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     reproduce::check_scale(scale)
         .and_then(|()| reproduce::check_revolutions(revolutions))
         .and_then(|()| a.contact_substeps.map_or(Ok(()), reproduce::check_contact_substeps))
+        .and_then(|()| a.mach_limit.map_or(Ok(()), reproduce::check_mach_limit))
         .map_err(BadInput)?;
     let contacts = reproduce::ContactOverrides {
         substeps: a.contact_substeps,
@@ -530,6 +536,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
                 BedArg::Wet => reproduce::BedMethod::Wet,
             },
             contacts,
+            mach_limit: a.mach_limit,
         };
         let s = pool
             .install(|| reproduce::reproduce(name, &opts))

@@ -30,6 +30,7 @@ fn pbt_ld2_reduced_run() {
         quiet: true,
         bed: Default::default(),
         contacts: Default::default(),
+        mach_limit: None,
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;

@@ -193,14 +193,20 @@ impl Case {
             .fold(0.0, f64::max)
     }
 
-    /// The case's identity for checkpoints: its normalised TOML with `run.steps` and
-    /// `run.checkpoint_every` left out, so that a resumed run may be extended or checkpoint at
-    /// another cadence, but not change anything that alters the physics or the output cadence.
+    /// The case's identity for checkpoints: its normalised TOML without `run.steps`,
+    /// `run.checkpoint_every`, `run.snapshots` and `run.mach_limit` (set to its default), so
+    /// that a resumed run may be extended, checkpoint at another cadence, write other snapshots
+    /// or stop at another Mach number, but not change anything that alters the physics or the
+    /// output cadence.
     pub fn fingerprint(&self) -> String {
         let mut c = self.clone();
         c.run.steps = 0;
         c.run.checkpoint_every = None;
         c.run.snapshots.clear();
+        // The Mach limit only decides when to stop (no number depends on it): a run it stopped
+        // may continue under a higher one. Set to the default, not removed, so that the
+        // fingerprints of runs at the default stay what they were.
+        c.run.mach_limit = default_mach_limit();
         toml::to_string(&c).unwrap_or_default()
     }
 

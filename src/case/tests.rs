@@ -319,11 +319,22 @@ fn checkpoint_every_must_be_even_and_within_steps() {
     }
     let ok = Case::parse(&edit("[run]", "checkpoint_every = 20"), "t.toml").unwrap();
     assert_eq!(ok.run.checkpoint_every, Some(20));
-    // The fingerprint ignores the run length and the checkpoint cadence, nothing else.
+    // The fingerprint ignores the run length, the checkpoint cadence, the snapshots and the
+    // Mach limit (a run may be resumed with other ones), nothing else; at the default Mach
+    // limit it is the normalised text without the first two, as it always was.
     let longer = Case::parse(&edit("steps = 100", "steps = 500"), "t.toml").unwrap();
     assert_eq!(ok.fingerprint(), longer.fingerprint());
+    let looser =
+        Case::parse(&edit("[run]", "checkpoint_every = 20\nmach_limit = 0.4\nsnapshots = [7]"), "t.toml")
+            .unwrap();
+    assert_eq!(ok.fingerprint(), looser.fingerprint());
+    let mut bare = ok.clone();
+    (bare.run.steps, bare.run.checkpoint_every) = (0, None);
+    assert_eq!(ok.fingerprint(), toml::to_string(&bare).unwrap());
     let other = Case::parse(&edit("nu = 0.1", "nu = 0.2"), "t.toml").unwrap();
     assert_ne!(ok.fingerprint(), other.fingerprint());
+    let cadence = Case::parse(&edit("output_every = 10", "output_every = 20"), "t.toml").unwrap();
+    assert_ne!(ok.fingerprint(), cadence.fingerprint());
 }
 
 // ---- particles -------------------------------------------------------------------------

@@ -3,9 +3,10 @@
 //!
 //! Written atomically at the start of every session (`status = "running"`, the session's
 //! `ended` empty) and again at its end (`"finished"`, with the session's wall time, the steps
-//! and revolutions done). A `--resume` appends a session, so `restarts = sessions − 1`, and a
-//! session without an end was interrupted (killed, or stopped by an error). `wall_time_s` sums
-//! the sessions that ended.
+//! and revolutions done). A run stopped by an error (numerical trouble, a failed write) ends
+//! its session with `"stopped: <the error>"`. A `--resume` appends a session, so
+//! `restarts = sessions − 1`, and a session without an end was killed. `wall_time_s` sums the
+//! sessions that ended.
 //!
 //! **Revision.** The build's git revision is what `SLURRY_GIT_REVISION` says at run time
 //! (`cargo xtask reproduce` sets it from the checkout it has just built), else the revision of
@@ -110,6 +111,22 @@ impl Manifest {
         self.status = "finished".into();
         self.steps_done = Some(steps_done);
         self.revolutions_done = Some(revolutions_done);
+        self.wall_time_s = self.sessions.iter().filter_map(|s| s.wall_time_s).sum();
+        self.write(dir)
+    }
+
+    /// Ends the current session on an error: its end and wall time, status
+    /// `"stopped: <error>"` (the steps done stay as the last finished session left them; the
+    /// run's time series says how far this one got). Written to `dir` atomically.
+    ///
+    /// # Errors
+    /// Writing the file failed.
+    pub fn stop(&mut self, dir: &Path, wall_time_s: f64, error: &str) -> anyhow::Result<()> {
+        if let Some(s) = self.sessions.last_mut() {
+            s.ended = Some(utc_now());
+            s.wall_time_s = Some(wall_time_s);
+        }
+        self.status = format!("stopped: {error}");
         self.wall_time_s = self.sessions.iter().filter_map(|s| s.wall_time_s).sum();
         self.write(dir)
     }
@@ -234,6 +251,13 @@ mod tests {
             ("finished", 12.5, Some(101_000))
         );
         assert_eq!(read.sessions[1].resumed_from_step, Some(5000));
+        // A session stopped by an error ends, says why, and counts its time.
+        let mut m = Manifest::start(dir.path(), first.clone(), true, this_session(2)).unwrap();
+        m.stop(dir.path(), 3.0, "numerical trouble at step 95850: Mach number 0.301").unwrap();
+        let read = Manifest::read(dir.path()).unwrap();
+        assert_eq!(read.status, "stopped: numerical trouble at step 95850: Mach number 0.301");
+        assert!(read.sessions[2].ended.is_some());
+        assert_eq!((read.wall_time_s, read.steps_done, read.restarts), (15.5, Some(101_000), 2));
         // A fresh start replaces the record.
         let m = Manifest::start(dir.path(), first, false, this_session(1)).unwrap();
         assert_eq!((m.restarts, m.sessions.len()), (0, 1));

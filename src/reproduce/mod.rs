@@ -124,6 +124,19 @@ pub fn check_contact_substeps(n: usize) -> Result<(), String> {
     Err(format!("--contact-substeps {n} is out of range: it must be in [{lo}, {hi}]"))
 }
 
+/// Checks `slurry reproduce --mach-limit L`: `0 < L ≤ 1`, as `[run] mach_limit`.
+///
+/// # Errors
+/// The message names the option, the value and the allowed range.
+pub fn check_mach_limit(l: f64) -> Result<(), String> {
+    if l.is_finite() && l > 0.0 && l <= 1.0 {
+        return Ok(());
+    }
+    Err(format!(
+        "--mach-limit {l} is out of range: it must be in (0, 1] (default 0.3; the run stops when |u|/c_s exceeds it anywhere)"
+    ))
+}
+
 /// Contact settings of the stirred run that differ from the case's (`slurry reproduce
 /// --contact-substeps N --lubrication-limiter`): to measure a cheaper contact scheme against
 /// the default on the same bed. The bed is settled with the case's settings either way (so
@@ -307,6 +320,9 @@ pub struct ReproduceOptions {
     pub bed: BedMethod,
     /// Contact settings of the stirred run, where they differ from the case's.
     pub contacts: ContactOverrides,
+    /// The stirred run's Mach limit, where it differs from the default 0.3 (a health check:
+    /// no number changes, so a run stopped by it can be resumed with a higher one).
+    pub mach_limit: Option<f64>,
 }
 
 /// The stirred run's settings for a scaled case (derived from the impeller).
@@ -572,6 +588,9 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     }
     let mut case = stirred_case(&scaled, &bed, &sched);
     opts.contacts.apply(&mut case);
+    if let Some(l) = opts.mach_limit {
+        case.run.mach_limit = l;
+    }
     case.validate().map_err(|kind| anyhow::anyhow!("the stirred case of {name} is invalid: {kind}"))?;
     let first = manifest::Manifest {
         case: name.to_string(),
@@ -589,7 +608,15 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let session = manifest::this_session(rayon::current_num_threads());
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let run_dir = opts.out.join("run");
-    let run = run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume })?;
+    let run = match run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume }) {
+        Ok(run) => run,
+        Err(e) => {
+            // The manifest says the session ended and why; the run's files and its last
+            // checkpoint stay for a resume. The run's error is the one reported.
+            let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &format!("{e:#}"));
+            return Err(e);
+        }
+    };
     let record = RunRecord {
         case: name.to_string(),
         scale: opts.scale,
