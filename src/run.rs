@@ -615,7 +615,7 @@ fn restore<T: Real + hdf5::H5Type>(
     })?;
     if checkpoint.case != fingerprint {
         return Err(BadResume(format!(
-            "{} was written for a different case (only run.steps and run.checkpoint_every may change)",
+            "{} was written for a different case (only run.steps, run.checkpoint_every, run.snapshots and run.mach_limit may change)",
             path.display()
         ))
         .into());

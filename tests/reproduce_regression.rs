@@ -14,7 +14,9 @@
 //!   solids volume; the orientation pdfs integrate to 1);
 //! - the run lasted the time asked for, and ⟨z_p⟩/H stays below ½ (the paper:
 //!   "well below 0.5" at every state);
-//! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers.
+//! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers;
+//! - a `--resume` of the finished run, with the bed read back from the cache, is accepted
+//!   and gives the same statistics.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};
 
@@ -95,4 +97,14 @@ fn pbt_ld2_reduced_run() {
     let fig = |f: &str| summary.parent().unwrap().join(f).is_file();
     assert!(fig("fig05_mean_height_pbt.png") && fig("fig09_orientation_mobile_pbt.svg"));
     assert!(!fig("fig05_mean_height_disk.png"));
+
+    // A resume reads the bed back from the cache, and the checkpoint's fingerprint holds the
+    // particles' positions: the bed read back must be bitwise the one settled in memory, or
+    // the resume is refused as "a different case" (so it was, before serde_json's exact
+    // float parsing). Resuming the finished run restarts from its last checkpoint, runs the
+    // steps after it again, bitwise, and gives the same statistics.
+    let again = reproduce("pbt-ld2", &ReproduceOptions { resume: true, ..opts.clone() }).unwrap();
+    assert!(again.record.bed_cached, "the bed of the resume comes from the cache");
+    assert!(again.record.run.resumed_from.is_some_and(|k| k > 0 && k <= s.record.run.steps));
+    assert_eq!(again.results.snapshot_text(), r.snapshot_text());
 }

@@ -146,3 +146,59 @@ fn snapshots_at_the_papers_revolutions() {
     }
     assert_eq!(schedule(&c, 30.0).unwrap().snapshot_steps(), s[..1]);
 }
+
+/// A bed read back from the cache is bitwise the bed that was settled. serde_json's default
+/// float parser can be one ulp off; the `float_roundtrip` feature makes it exact. Without it
+/// the first run of a case (bed settled in memory) and every later one (bed read from the
+/// cache) started from beds one ulp apart, and diverged: pbt-ld2 at s = 1/4 differed from its
+/// 50th step (found 2026-11-25, `reproduce/README.md`).
+#[test]
+fn cached_bed_reads_back_bitwise() {
+    // Values of that bed that were read back one ulp off, then a pseudo-random batch.
+    let mut values = vec![14.477085384794373, 0.9153878522412643, 0.4204752263705612, 13.984197000511575];
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    values.extend((0..30_000).map(|_| {
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 63.0
+    }));
+    let particles: Vec<crate::case::ParticleSpec> = values
+        .chunks_exact(3)
+        .map(|x| crate::case::ParticleSpec {
+            shape: crate::case::ShapeKind::Cylinder,
+            diameter: 3.0,
+            length: Some(6.0),
+            density: 1.5,
+            position: [x[0], x[1], x[2]],
+            orientation: Some([x[2], x[1], x[0], x[0] / 63.0]),
+            axis: None,
+            velocity: None,
+            angular_velocity: None,
+            motion: Default::default(),
+        })
+        .collect();
+    let rec = BedRecord {
+        inputs: "x".into(),
+        wet: false,
+        bed: Bed {
+            particles,
+            steps: 1,
+            mean_speed: 0.1,
+            max_speed: 0.2,
+            settled: true,
+            mean_height: 9.94,
+            seconds: 1.0,
+        },
+    };
+    let back: BedRecord = serde_json::from_str(&serde_json::to_string(&rec).unwrap()).unwrap();
+    let bits = |r: &BedRecord| -> Vec<u64> {
+        r.bed
+            .particles
+            .iter()
+            .flat_map(|p| p.position.into_iter().chain(p.orientation.unwrap()))
+            .map(f64::to_bits)
+            .collect()
+    };
+    let (a, b) = (bits(&rec), bits(&back));
+    let off = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert_eq!(off, 0, "{off} of {} numbers read back differently", a.len());
+}
