@@ -63,8 +63,8 @@ pub use errors::{CaseError, CaseErrorKind};
 pub use impeller::{ImpellerKindSpec, ImpellerSection, ImpellerSetup, PumpingSpec};
 pub use particles::{IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind};
 pub use schema::{
-    default_mach_limit, BoundarySection, BoundarySpec, Case, CollisionModel, DomainSection, FluidSection,
-    InitialKind, InitialSection, Precision, RunSection,
+    default_mach_limit, mach_limit_allowed, BoundarySection, BoundarySpec, Case, CollisionModel,
+    DomainSection, FluidSection, InitialKind, InitialSection, Precision, RunSection,
 };
 
 /// Largest allowed relaxation time τ (`fluid.tau`, or `3 fluid.nu + 1/2`): beyond it the

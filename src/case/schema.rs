@@ -252,3 +252,9 @@ pub struct RunSection {
 pub fn default_mach_limit() -> f64 {
     0.3
 }
+
+/// Whether `l` is an allowed Mach limit (`[run] mach_limit`, `slurry reproduce --mach-limit`):
+/// `0 < l ≤ 1`.
+pub fn mach_limit_allowed(l: f64) -> bool {
+    l.is_finite() && l > 0.0 && l <= 1.0
+}

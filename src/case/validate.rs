@@ -200,7 +200,7 @@ impl Case {
                 format!("must hold steps with 1 <= step <= run.steps = {}", r.steps),
             ));
         }
-        if !(r.mach_limit.is_finite() && r.mach_limit > 0.0 && r.mach_limit <= 1.0) {
+        if !mach_limit_allowed(r.mach_limit) {
             return Err(invalid(
                 "run.mach_limit",
                 r.mach_limit,

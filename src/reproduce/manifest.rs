@@ -61,7 +61,7 @@ pub struct Manifest {
     pub contacts: ContactOverrides,
     /// Steps of the whole run (ramp and revolutions).
     pub steps: u64,
-    /// `"running"` or `"finished"`.
+    /// `"running"`, `"finished"` or `"stopped: <error>"`.
     pub status: String,
     /// Steps done when the last session ended.
     pub steps_done: Option<u64>,
@@ -104,15 +104,11 @@ impl Manifest {
         resumed_from_step: Option<u64>,
     ) -> anyhow::Result<()> {
         if let Some(s) = self.sessions.last_mut() {
-            s.ended = Some(utc_now());
-            s.wall_time_s = Some(wall_time_s);
             s.resumed_from_step = resumed_from_step;
         }
-        self.status = "finished".into();
         self.steps_done = Some(steps_done);
         self.revolutions_done = Some(revolutions_done);
-        self.wall_time_s = self.sessions.iter().filter_map(|s| s.wall_time_s).sum();
-        self.write(dir)
+        self.end_session(dir, wall_time_s, "finished".into())
     }
 
     /// Ends the current session on an error: its end and wall time, status
@@ -122,11 +118,16 @@ impl Manifest {
     /// # Errors
     /// Writing the file failed.
     pub fn stop(&mut self, dir: &Path, wall_time_s: f64, error: &str) -> anyhow::Result<()> {
+        self.end_session(dir, wall_time_s, format!("stopped: {error}"))
+    }
+
+    /// The current session's end and wall time, the status, the total wall time; written.
+    fn end_session(&mut self, dir: &Path, wall_time_s: f64, status: String) -> anyhow::Result<()> {
         if let Some(s) = self.sessions.last_mut() {
             s.ended = Some(utc_now());
             s.wall_time_s = Some(wall_time_s);
         }
-        self.status = format!("stopped: {error}");
+        self.status = status;
         self.wall_time_s = self.sessions.iter().filter_map(|s| s.wall_time_s).sum();
         self.write(dir)
     }

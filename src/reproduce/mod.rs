@@ -129,11 +129,12 @@ pub fn check_contact_substeps(n: usize) -> Result<(), String> {
 /// # Errors
 /// The message names the option, the value and the allowed range.
 pub fn check_mach_limit(l: f64) -> Result<(), String> {
-    if l.is_finite() && l > 0.0 && l <= 1.0 {
+    if crate::case::mach_limit_allowed(l) {
         return Ok(());
     }
     Err(format!(
-        "--mach-limit {l} is out of range: it must be in (0, 1] (default 0.3; the run stops when |u|/c_s exceeds it anywhere)"
+        "--mach-limit {l} is out of range: it must be in (0, 1] (default {}; the run stops when |u|/c_s exceeds it anywhere)",
+        crate::case::default_mach_limit()
     ))
 }
 
