@@ -157,7 +157,7 @@ struct BenchArgs {
     #[arg(long, default_value_t = 20)]
     steps: u64,
     /// With --coupled: the skin of the contact pair list, lattice units (default: the
-    /// library's, 0.3). The loads do not depend on it, only the cost.
+    /// library's, `DEFAULT_SKIN` = 0.15). The loads do not depend on it, only the cost.
     #[arg(long)]
     skin: Option<f64>,
     /// With --coupled: contact sub-steps per fluid step, 1 … 1024 (default: the case's, 8).
