@@ -17,6 +17,13 @@
 //! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers;
 //! - a `--resume` of the finished run, with the bed read back from the cache, is accepted
 //!   and gives the same statistics.
+//!
+//! The steady state of this same case and scale is archived instead
+//! (`reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200`: 200 revolutions, steady from about
+//! revolution 140; ⟨z_p⟩/H 0.332 against the paper's 0.31, Po_f 1.944 against 2.37, Po_c 1.200
+//! against 0.537, Po 3.145 against 2.91). It took about 3.2 h of stepping on 2 cores, twenty
+//! times this test's budget. No band against the paper is asserted anywhere in CI: the
+//! resolution study that would support one has a single point (s = 1/4) so far.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};
 
