@@ -416,18 +416,6 @@ impl Default for BedMethod {
     }
 }
 
-/// The dry settling's step limit for the scaled case `c`: `opts` with `max_steps` raised to
-/// at least 4 times the time to fall the tank's height at the terminal speed,
-/// `4 n_z / v_t` (4800 steps at s = 1/4, 9600 at s = 1/2, 19 200 at s = 1), as the wet rule
-/// gives 4 times its fall time. The fixed 2000 of [`DryBedOptions::default`] stopped the
-/// s = 1/2 beds unsettled (pbt-ld2: mean speed 3.2e-3 against the stop at 2.5e-3, 2026-11-25);
-/// beds that settle before it (every case at s = 1/4: pbt-ld2 in 1154 steps) are bitwise the
-/// same, though cached under a new key.
-pub fn dry_settling(c: &Case, opts: DryBedOptions) -> DryBedOptions {
-    let fall = (4.0 * c.domain.nz as f64 / opts.terminal_speed).ceil() as u64;
-    DryBedOptions { max_steps: opts.max_steps.max(fall), ..opts }
-}
-
 /// The wet settling's stopping rule for the scaled case `c`, from the Stokes settling speed
 /// of a sphere of the particles' diameter, `v_s = (γ − 1) g d²/(18 ν)` (1.6e-3 at every
 /// scale for the paper's cases: `g ∝ 1/s`, `d ∝ s`, `ν ∝ s`): stop when the mean particle
@@ -471,14 +459,14 @@ pub fn bed(
     };
     let case_text = toml::to_string(&key_case.normalised()).context("cannot serialise the case")?;
     let wet = wet_settling(&key_case);
-    let method = match method {
-        BedMethod::Dry(opts) => BedMethod::Dry(dry_settling(&key_case, opts)),
-        BedMethod::Wet => BedMethod::Wet,
-    };
     let inputs = match method {
         BedMethod::Dry(opts) => format!(
             "{case_text}\n# dry bed: gravity x {:?}, terminal speed {:?}, stop below {:?} of it, steps {}..{}\n",
-            opts.gravity_factor, opts.terminal_speed, opts.stop_fraction, opts.min_steps, opts.max_steps
+            opts.gravity_factor,
+            opts.terminal_speed,
+            opts.stop_fraction,
+            opts.min_steps,
+            opts.max_steps(&key_case)
         ),
         BedMethod::Wet => format!(
             "{case_text}\n# wet bed: in the fluid, stop below mean speed {:?}, checked every {}, steps {}..{}\n",

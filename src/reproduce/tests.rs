@@ -122,16 +122,12 @@ fn wet_settling_scales_with_the_case() {
 }
 
 #[test]
-fn dry_settling_allows_four_falls_of_the_tank() {
+fn dry_beds_allow_four_falls_of_the_tank() {
     let full = paper_cases()[4].case().unwrap();
     for (s, max) in [(0.25, 4800), (0.5, 9600), (1.0, 19_200)] {
         let c = scale_case(&full, s).unwrap();
-        let o = dry_settling(&c, DryBedOptions::default());
-        assert_eq!((o.max_steps, o.min_steps), (max, DryBedOptions::default().min_steps), "s = {s}");
+        assert_eq!(DryBedOptions::default().max_steps(&c), max, "s = {s}");
     }
-    // A larger limit asked for is kept.
-    let c = scale_case(&full, 0.25).unwrap();
-    assert_eq!(dry_settling(&c, DryBedOptions { max_steps: 50_000, ..Default::default() }).max_steps, 50_000);
 }
 
 /// A bed cached before `--bed` existed (no `wet` key) reads as dry.
