@@ -78,8 +78,14 @@ struct ReproduceArgs {
     #[arg(long, value_name = "DIR")]
     cache: Option<PathBuf>,
     /// Continue an interrupted run from its last checkpoint (bitwise identical result).
+    /// A finished run may be continued too, with more --revolutions.
     #[arg(long)]
     resume: bool,
+    /// With --resume: continue a checkpoint written under other contact settings
+    /// (--contact-substeps, --lubrication-limiter), to measure one contact scheme against
+    /// another from the same state; the manifest's sessions record each command.
+    #[arg(long, requires = "resume")]
+    switch_contacts: bool,
     /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long, value_name = "N")]
     threads: Option<NonZeroUsize>,
@@ -309,6 +315,11 @@ struct RunArgs {
     /// identically to an uninterrupted run; `run.steps` may be raised to extend a run.
     #[arg(long)]
     resume: bool,
+    /// With --resume: accept a checkpoint written under other `[contacts] substeps` or
+    /// `lubrication_limiter` (everything else must match), to continue a run under another
+    /// contact scheme from the same state.
+    #[arg(long, requires = "resume")]
+    switch_contacts: bool,
 }
 
 /// `slurry check`.
@@ -414,7 +425,7 @@ fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
     let case = Case::from_file(&a.case)?;
     usable_out_dir(&a.out)?;
     let pool = thread_pool(a.threads)?;
-    let opts = RunOptions { quiet: a.quiet, resume: a.resume };
+    let opts = RunOptions { quiet: a.quiet, resume: a.resume, switch_contacts: a.switch_contacts };
     let summary = pool
         .install(|| run_case(&case, &a.out, opts))
         .with_context(|| format!("run of {} failed", a.case.display()))?;
@@ -530,6 +541,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             out: out.clone(),
             cache: cache.clone(),
             resume: a.resume,
+            switch_contacts: a.switch_contacts,
             quiet: a.quiet,
             bed: match a.bed {
                 BedArg::Dry => reproduce::BedMethod::default(),

@@ -83,6 +83,11 @@ pub struct RunOptions {
     /// Continue from `checkpoint.h5` in the output directory (bitwise identical to a run that
     /// was never interrupted); the time series is cut back to the checkpoint's step.
     pub resume: bool,
+    /// With `resume`: accept a checkpoint written under other contact sub-steps or another
+    /// lubrication limiter setting (everything else must match,
+    /// [`Case::fingerprint_except_contact_scheme`]): a run continued under a cheaper (or the
+    /// default) contact scheme, to measure one against the other from the same state.
+    pub switch_contacts: bool,
 }
 
 /// What a finished run reports (also written as `summary.json`).
@@ -332,7 +337,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let fingerprint = case.fingerprint();
         let columns = Columns { particles: particles > 0, impeller: impeller.is_some() };
         let (timeseries, max_mach_before) = if opts.resume {
-            restore(&mut solver, &checkpoint_path, &fingerprint, out_dir)?;
+            let relaxed = opts.switch_contacts.then(|| case.fingerprint_except_contact_scheme());
+            restore(&mut solver, &checkpoint_path, &fingerprint, relaxed.as_deref(), out_dir)?;
             let timeseries =
                 TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
                     BadResume(format!(
@@ -593,11 +599,14 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
 }
 
 /// Restores `solver` from the checkpoint at `path`, which must have been written for the case
-/// with `fingerprint` (and, for a coupled solver, hold the bodies' states).
+/// with `fingerprint` (and, for a coupled solver, hold the bodies' states). With `relaxed`
+/// (a contact-scheme switch, [`RunOptions::switch_contacts`]) a checkpoint whose case has that
+/// [`Case::fingerprint_except_contact_scheme`] is accepted too.
 fn restore<T: Real + hdf5::H5Type>(
     solver: &mut Solver<T>,
     path: &Path,
     fingerprint: &str,
+    relaxed: Option<&str>,
     out_dir: &Path,
 ) -> anyhow::Result<()> {
     let no_checkpoint = || {
@@ -613,9 +622,19 @@ fn restore<T: Real + hdf5::H5Type>(
         Some(p) => BadResume(p.to_string()),
         None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
     })?;
-    if checkpoint.case != fingerprint {
+    let switched = || {
+        relaxed.is_some_and(|r| {
+            toml::from_str::<Case>(&checkpoint.case).is_ok_and(|c| c.fingerprint_except_contact_scheme() == r)
+        })
+    };
+    if checkpoint.case != fingerprint && !switched() {
+        let also = if relaxed.is_some() {
+            ", and with --switch-contacts [contacts] substeps and lubrication_limiter"
+        } else {
+            ""
+        };
         return Err(BadResume(format!(
-            "{} was written for a different case (only run.steps, run.checkpoint_every, run.snapshots and run.mach_limit may change)",
+            "{} was written for a different case (only run.steps, run.checkpoint_every, run.snapshots and run.mach_limit may change{also})",
             path.display()
         ))
         .into());

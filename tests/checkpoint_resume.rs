@@ -173,3 +173,51 @@ fn resumed_equals_uninterrupted(long_case: &str, short_case: &str) {
     assert_eq!(read(&a.join("fields.h5"), "velocity"), read(&b.join("fields.h5"), "velocity"));
     assert_eq!(physics_rows(&a.join("timeseries.csv")), physics_rows(&b.join("timeseries.csv")));
 }
+
+/// `--switch-contacts`: a checkpoint written under one contact scheme continues under another
+/// (`[contacts] substeps`, `lubrication_limiter`) only when asked, and only those may change:
+/// another Table 1 constant is still refused. The continued run keeps the history up to the
+/// checkpoint bit for bit and runs to its end.
+#[test]
+fn switch_contacts_resumes_under_another_contact_scheme_only() {
+    let tmp = tempfile::tempdir().unwrap();
+    let explicit = write_case(tmp.path(), "explicit.toml", &particle_case_with(250, "[contacts]", 2.8));
+    let limited = "[contacts]\nsubsteps = 2\nlubrication_limiter = true";
+    let cheaper = write_case(tmp.path(), "cheaper.toml", &particle_case_with(400, limited, 2.8));
+    let stiffer = write_case(
+        tmp.path(),
+        "stiffer.toml",
+        &particle_case_with(400, "[contacts]\nk = 4.0\nsubsteps = 2", 2.8),
+    );
+    let reference = write_case(tmp.path(), "reference.toml", &particle_case_with(400, "[contacts]", 2.8));
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    assert!(run(&reference, &a, false).status.success());
+    assert!(run(&explicit, &b, false).status.success());
+    let switch = |case: &Path| {
+        Command::new(BIN)
+            .args(["run"])
+            .arg(case)
+            .arg("--out")
+            .arg(&b)
+            .args(["--quiet", "--resume", "--switch-contacts"])
+            .output()
+            .unwrap()
+    };
+    let refused = run(&cheaper, &b, true);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("different case"));
+    let refused = switch(&stiffer);
+    assert_eq!(refused.status.code(), Some(2), "{}", String::from_utf8_lossy(&refused.stderr));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--switch-contacts"));
+    let out = switch(&cheaper);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // Frames to the checkpoint (step 200, 5 frames of 50 steps) as the uninterrupted
+    // explicit run's; the whole history, 9 frames, to step 400.
+    let (steps_a, steps_b) = (read(&a.join("particles.h5"), "time"), read(&b.join("particles.h5"), "time"));
+    assert_eq!((steps_a.len(), &steps_a), (9, &steps_b));
+    let (x, y) = (read(&a.join("particles.h5"), "position"), read(&b.join("particles.h5"), "position"));
+    let per_frame = x.len() / steps_a.len();
+    let kept = 5 * per_frame;
+    assert!(x[..kept].iter().zip(&y[..kept]).all(|(p, q)| p.to_bits() == q.to_bits()));
+    assert!(physics_rows(&b.join("timeseries.csv")).last().unwrap().starts_with("400,"));
+}

@@ -36,6 +36,7 @@ fn pbt_ld2_reduced_run() {
         out: dir.path().join("pbt-ld2"),
         cache: dir.path().join("cache"),
         resume: false,
+        switch_contacts: false,
         quiet: true,
         bed: Default::default(),
         contacts: Default::default(),

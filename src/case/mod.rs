@@ -210,6 +210,20 @@ impl Case {
         toml::to_string(&c).unwrap_or_default()
     }
 
+    /// [`Case::fingerprint`] with the contact scheme's cost settings, `[contacts] substeps`
+    /// and `lubrication_limiter`, set to their defaults: what a checkpoint must match for a
+    /// resume that switches the contact scheme (`RunOptions::switch_contacts`). The model
+    /// (Table 1's constants, which parts act) must still match.
+    pub fn fingerprint_except_contact_scheme(&self) -> String {
+        let mut c = self.clone();
+        if let Some(p) = c.contacts.as_mut() {
+            let d = crate::contact::ContactParams::default();
+            p.substeps = d.substeps;
+            p.lubrication_limiter = d.lubrication_limiter;
+        }
+        c.fingerprint()
+    }
+
     /// Number of time-series rows a run writes: step 0, every `output_every` steps, and the
     /// last step if it is not a multiple of `output_every`.
     pub fn output_rows(&self) -> u64 {

@@ -77,12 +77,24 @@ pub struct Manifest {
 
 impl Manifest {
     /// Starts a session: a new manifest, or (resuming) the one in `dir` with a session
-    /// appended (a new one if there is none or it cannot be read). Written to `dir` atomically.
+    /// appended (a new one if there is none or it cannot be read), its target (revolutions,
+    /// steps) and contact settings replaced by `first`'s. Written to `dir` atomically.
     ///
     /// # Errors
     /// Writing the file failed.
     pub fn start(dir: &Path, first: Manifest, resume: bool, session: Session) -> anyhow::Result<Manifest> {
-        let mut m = if resume { Self::read(dir).unwrap_or(first) } else { first };
+        let mut m = match resume.then(|| Self::read(dir)).flatten() {
+            // The run's target and contact settings are this session's (a resume may extend
+            // the run, or switch the contact scheme); its history stays.
+            Some(old) => Manifest {
+                steps_done: old.steps_done,
+                revolutions_done: old.revolutions_done,
+                wall_time_s: old.wall_time_s,
+                sessions: old.sessions,
+                ..first
+            },
+            None => first,
+        };
         m.status = "running".into();
         m.sessions.push(session);
         m.restarts = m.sessions.len() - 1;
@@ -259,6 +271,17 @@ mod tests {
         assert_eq!(read.status, "stopped: numerical trouble at step 95850: Mach number 0.301");
         assert!(read.sessions[2].ended.is_some());
         assert_eq!((read.wall_time_s, read.steps_done, read.restarts), (15.5, Some(101_000), 2));
+        // A resume that extends the run under another contact scheme: the target and the
+        // settings are the new ones, the history stays.
+        let longer = Manifest {
+            revolutions: 130.0,
+            steps: 131_000,
+            contacts: ContactOverrides { substeps: Some(2), lubrication_limiter: true },
+            ..first.clone()
+        };
+        let m = Manifest::start(dir.path(), longer, true, this_session(2)).unwrap();
+        assert_eq!((m.revolutions, m.steps, m.contacts.substeps), (130.0, 131_000, Some(2)));
+        assert_eq!((m.sessions.len(), m.wall_time_s, m.steps_done), (4, 15.5, Some(101_000)));
         // A fresh start replaces the record.
         let m = Manifest::start(dir.path(), first, false, this_session(1)).unwrap();
         assert_eq!((m.restarts, m.sessions.len()), (0, 1));

@@ -315,6 +315,9 @@ pub struct ReproduceOptions {
     pub cache: PathBuf,
     /// Continue an interrupted run from its last checkpoint.
     pub resume: bool,
+    /// With `resume`: continue a checkpoint written under other contact sub-steps or another
+    /// lubrication limiter setting ([`crate::run::RunOptions::switch_contacts`]).
+    pub switch_contacts: bool,
     /// No progress output.
     pub quiet: bool,
     /// How the bed is settled.
@@ -613,7 +616,11 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let session = manifest::this_session(rayon::current_num_threads());
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let run_dir = opts.out.join("run");
-    let run = match run_case(&case, &run_dir, RunOptions { quiet: opts.quiet, resume: opts.resume }) {
+    let run = match run_case(
+        &case,
+        &run_dir,
+        RunOptions { quiet: opts.quiet, resume: opts.resume, switch_contacts: opts.switch_contacts },
+    ) {
         Ok(run) => run,
         Err(e) => {
             // The manifest says the session ended and why; the run's files and its last
