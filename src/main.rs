@@ -173,6 +173,10 @@ struct BenchArgs {
     /// that fewer sub-steps stay stable.
     #[arg(long)]
     lubrication_limiter: bool,
+    /// With --coupled: start from this checkpoint of a reproduction of the case (one case, one
+    /// scale; e.g. `run/checkpoint.h5` of a run at steady state) instead of the settled bed.
+    #[arg(long, value_name = "CHECKPOINT")]
+    from: Option<PathBuf>,
 }
 
 /// `slurry bench --coupled`: the paper's cases at each scale, one thread count (the first of
@@ -191,6 +195,18 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     }
     if a.steps == 0 {
         return Err(BadInput("--steps must be positive".into()).into());
+    }
+    if let Some(p) = &a.from {
+        if cases.len() != 1 || a.scales.len() != 1 {
+            return Err(BadInput(format!(
+                "--from {}: give exactly one case (--cases) and one scale (--scales) to start from a checkpoint",
+                p.display()
+            ))
+            .into());
+        }
+        if !p.is_file() {
+            return Err(BadInput(format!("--from {}: no such file", p.display())).into());
+        }
     }
     if let Some(skin) = a.skin {
         if !(skin.is_finite() && (0.0..=2.0).contains(&skin)) {
@@ -232,7 +248,9 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     );
     for &s in &a.scales {
         for name in &cases {
-            let r = pool.install(|| bench_case(name, s, &cache, a.warmup, a.steps, contact, false))?;
+            let r = pool.install(|| {
+                bench_case(name, s, &cache, a.warmup, a.steps, contact, a.from.as_deref(), false)
+            })?;
             println!(
                 "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
                 r.case,

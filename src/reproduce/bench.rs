@@ -9,6 +9,11 @@
 //! coupling's phase timers ([`crate::coupling::StepTimings`]). The fluid-only step is a
 //! [`Fluid`] of the same grid and boundaries with its force field on, timed over as many steps.
 //!
+//! With `from` (`slurry bench --coupled --from CHECKPOINT`) the coupled solver starts instead
+//! from a run's checkpoint of the same case and scale (a reproduction's `run/checkpoint.h5`,
+//! written under any contact scheme): the cost of the suspension at steady state, where the
+//! particles are spread over the tank and move fast, rather than of the bed being lifted.
+//!
 //! The per-output work of a run (the health check and the walls' momentum exchange behind the
 //! torque balance) is timed once and divided by the case's output interval: `output_ms`.
 
@@ -82,6 +87,11 @@ pub struct CoupledBench {
     pub contact_substeps: usize,
     /// Whether the lubrication limiter was on.
     pub lubrication_limiter: bool,
+    /// The fluid time step the timed steps started from: the warm-up's end, after the
+    /// checkpoint's step when started from one.
+    pub start_step: u64,
+    /// The checkpoint the coupled solver started from (`None`: the settled bed).
+    pub from: Option<String>,
 }
 
 /// Changes to the contacts of a benchmarked case (the bed is made as the case says).
@@ -96,11 +106,13 @@ pub struct ContactOptions {
     pub limiter: bool,
 }
 
-/// Measures case `name` at scale `scale` (module docs).
+/// Measures case `name` at scale `scale`, from its settled bed or, with `from`, from a run's
+/// checkpoint (module docs).
 ///
 /// # Errors
 /// An unknown case or scale, a bed that cannot be settled or cached, a coupling that cannot
-/// be built.
+/// be built, a checkpoint that cannot be read or was written for another case or scale.
+#[allow(clippy::too_many_arguments)]
 pub fn bench_case(
     name: &str,
     scale: f64,
@@ -108,10 +120,14 @@ pub fn bench_case(
     warmup: u64,
     steps: u64,
     contact: ContactOptions,
+    from: Option<&Path>,
     quiet: bool,
 ) -> anyhow::Result<CoupledBench> {
     let pc = super::paper_case(name)?;
     let scaled = super::scale_case(&pc.case()?, scale)?;
+    // A checkpoint is read and its grid checked before the bed is made (which may take long).
+    let g = scaled.grid();
+    let checkpoint = from.map(|p| read_from(p, [g.nx, g.ny, g.nz])).transpose()?;
     let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet)?;
     let sched = super::schedule(&scaled, 1.0)?;
     let case = super::stirred_case(&scaled, &bed, &sched);
@@ -142,6 +158,9 @@ pub fn bench_case(
     }
     let mut c =
         Coupled::new(new_fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
+    if let (Some(path), Some(cp)) = (from, checkpoint) {
+        restore_from(&mut c, &case, path, cp)?;
+    }
     if let Some(skin) = contact.skin {
         c.set_contact_skin(skin);
     }
@@ -149,6 +168,7 @@ pub fn bench_case(
         c.step().map_err(|e| anyhow::anyhow!("warm-up step: {e}"))?;
     }
     c.reset_timings();
+    let start_step = c.fluid().time();
     let rebuilds0 = c.contact_list_rebuilds();
     let full0 = c.contacts().map_or(0, |k| k.full_rebuilds());
     let (mut max_damping_rate, mut max_spring_rate) = (0.0f64, 0.0f64);
@@ -196,5 +216,60 @@ pub fn bench_case(
         max_spring_rate,
         contact_substeps: params.contacts.map_or(0, |p| p.substeps),
         lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
+        start_step,
+        from: from.map(|p| p.display().to_string()),
     })
+}
+
+/// Reads the checkpoint at `path` for [`bench_case`]'s `from`: an `f32` checkpoint with
+/// particle states on an `nx × ny × nz` grid (the case's at the benchmarked scale).
+fn read_from(
+    path: &Path,
+    [nx, ny, nz]: [usize; 3],
+) -> anyhow::Result<crate::io::checkpoint::Checkpoint<f32>> {
+    let cp = crate::io::checkpoint::read_checkpoint::<f32>(path).map_err(|e| {
+        anyhow::anyhow!("--from {}: cannot be read as an f32 slurry checkpoint: {e}", path.display())
+    })?;
+    let g = cp.state.grid;
+    if (g.nx, g.ny, g.nz) != (nx, ny, nz) {
+        anyhow::bail!(
+            "--from {}: the checkpoint's grid is {} x {} x {}, the case's at this scale {} x {} x {} (give the scale of the run that wrote it)",
+            path.display(),
+            g.nx,
+            g.ny,
+            g.nz,
+            nx,
+            ny,
+            nz
+        );
+    }
+    if cp.bodies.is_none() {
+        anyhow::bail!(
+            "--from {}: holds no particle states (not a reproduction's checkpoint)",
+            path.display()
+        );
+    }
+    Ok(cp)
+}
+
+/// Restores `c` from `cp`, read from `path`, which must have been written for `case` (the
+/// benchmark's stirred case: same scale, bed and impeller), under any contact scheme
+/// ([`crate::case::Case::fingerprint_except_contact_scheme`]) and any length of run.
+fn restore_from(
+    c: &mut Coupled<f32>,
+    case: &crate::case::Case,
+    path: &Path,
+    cp: crate::io::checkpoint::Checkpoint<f32>,
+) -> anyhow::Result<()> {
+    let same = toml::from_str::<crate::case::Case>(&cp.case)
+        .is_ok_and(|k| k.fingerprint_except_contact_scheme() == case.fingerprint_except_contact_scheme());
+    if !same {
+        anyhow::bail!(
+            "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
+            path.display()
+        );
+    }
+    let bodies = cp.bodies.unwrap_or_default();
+    let state = crate::coupling::CoupledState { fluid: cp.state, bodies };
+    c.restore(&state).map_err(|e| anyhow::anyhow!("--from {}: cannot restore: {e}", path.display()))
 }
