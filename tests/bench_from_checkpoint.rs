@@ -2,8 +2,8 @@
 //! (a suspension at steady state) instead of the settled bed. Its refusals come at once,
 //! before a bed is made or a fluid is timed: more than one case or scale, a missing file, and
 //! a checkpoint of another grid (here a fluid-only run's, which also holds no particles).
-//! Starting from a real reproduction's checkpoint is measured, not tested (it needs a run of
-//! hundreds of revolutions; reproduce/README.md gives the figures).
+//! Starting from a reproduction's checkpoint is tested in `tests/reproduce_regression.rs`,
+//! which has one.
 
 use std::path::Path;
 

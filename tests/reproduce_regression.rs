@@ -16,7 +16,9 @@
 //!   "well below 0.5" at every state);
 //! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers;
 //! - a `--resume` of the finished run, with the bed read back from the cache, is accepted
-//!   and gives the same statistics.
+//!   and gives the same statistics;
+//! - `slurry bench --coupled --from` this run's checkpoint times the coupled step from the
+//!   checkpoint's step.
 //!
 //! The steady state of this same case and scale is archived instead
 //! (`reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200`: 200 revolutions, steady from about
@@ -115,4 +117,23 @@ fn pbt_ld2_reduced_run() {
     assert!(again.record.bed_cached, "the bed of the resume comes from the cache");
     assert!(again.record.run.resumed_from.is_some_and(|k| k > 0 && k <= s.record.run.steps));
     assert_eq!(again.results.snapshot_text(), r.snapshot_text());
+
+    // `slurry bench --coupled --from`: the coupled step timed from this run's checkpoint (the
+    // bed from the same cache) starts at the checkpoint's step, not at the bed's step 0.
+    let cp = opts.out.join("run/checkpoint.h5");
+    let b = slurry::reproduce::bench::bench_case(
+        "pbt-ld2",
+        0.25,
+        &opts.cache,
+        2,
+        2,
+        Default::default(),
+        Some(&cp),
+        true,
+    )
+    .unwrap();
+    let at: u64 = hdf5::File::open(&cp).unwrap().attr("time_step").unwrap().read_scalar().unwrap();
+    assert!(at > 0, "the checkpoint is a stirred state, not the bed: step {at}");
+    assert_eq!(b.start_step, at + 2, "timed from the checkpoint's step {at} after 2 warm-up steps");
+    assert!(b.step_ms > 0.0 && b.fluid_ms > 0.0 && b.from.is_some());
 }
