@@ -337,8 +337,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let fingerprint = case.fingerprint();
         let columns = Columns { particles: particles > 0, impeller: impeller.is_some() };
         let (timeseries, max_mach_before) = if opts.resume {
-            let relaxed = opts.switch_contacts.then(|| case.fingerprint_except_contact_scheme());
-            restore(&mut solver, &checkpoint_path, &fingerprint, relaxed.as_deref(), out_dir)?;
+            let relaxed = opts.switch_contacts.then_some(case);
+            restore(&mut solver, &checkpoint_path, &fingerprint, relaxed, out_dir)?;
             let timeseries =
                 TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
                     BadResume(format!(
@@ -600,13 +600,13 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
 
 /// Restores `solver` from the checkpoint at `path`, which must have been written for the case
 /// with `fingerprint` (and, for a coupled solver, hold the bodies' states). With `relaxed`
-/// (a contact-scheme switch, [`RunOptions::switch_contacts`]) a checkpoint whose case has that
-/// [`Case::fingerprint_except_contact_scheme`] is accepted too.
+/// (the case, on a contact-scheme switch, [`RunOptions::switch_contacts`]) a checkpoint of the
+/// same case up to the contact scheme ([`Case::same_except_contact_scheme`]) is accepted too.
 fn restore<T: Real + hdf5::H5Type>(
     solver: &mut Solver<T>,
     path: &Path,
     fingerprint: &str,
-    relaxed: Option<&str>,
+    relaxed: Option<&Case>,
     out_dir: &Path,
 ) -> anyhow::Result<()> {
     let no_checkpoint = || {
@@ -622,11 +622,7 @@ fn restore<T: Real + hdf5::H5Type>(
         Some(p) => BadResume(p.to_string()),
         None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
     })?;
-    let switched = || {
-        relaxed.is_some_and(|r| {
-            toml::from_str::<Case>(&checkpoint.case).is_ok_and(|c| c.fingerprint_except_contact_scheme() == r)
-        })
-    };
+    let switched = || relaxed.is_some_and(|c| c.same_except_contact_scheme(&checkpoint.case));
     if checkpoint.case != fingerprint && !switched() {
         let also = if relaxed.is_some() {
             ", and with --switch-contacts [contacts] substeps and lubrication_limiter"

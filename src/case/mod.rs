@@ -224,6 +224,14 @@ impl Case {
         c.fingerprint()
     }
 
+    /// Whether a checkpoint's stored fingerprint `text` ([`Case::fingerprint`] of the case that
+    /// wrote it) names this case up to the contact scheme
+    /// ([`Case::fingerprint_except_contact_scheme`]).
+    pub fn same_except_contact_scheme(&self, text: &str) -> bool {
+        toml::from_str::<Case>(text)
+            .is_ok_and(|c| c.fingerprint_except_contact_scheme() == self.fingerprint_except_contact_scheme())
+    }
+
     /// Number of time-series rows a run writes: step 0, every `output_every` steps, and the
     /// last step if it is not a multiple of `output_every`.
     pub fn output_rows(&self) -> u64 {

@@ -23,7 +23,7 @@ use std::time::Instant;
 use serde::Serialize;
 
 use crate::case::ImpellerSetup;
-use crate::coupling::Coupled;
+use crate::coupling::{Coupled, CoupledState};
 use crate::lbm::Fluid;
 
 /// The measurement of one case at one scale (what `target/bench/coupled.json` holds).
@@ -158,8 +158,15 @@ pub fn bench_case(
     }
     let mut c =
         Coupled::new(new_fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
-    if let (Some(path), Some(cp)) = (from, checkpoint) {
-        restore_from(&mut c, &case, path, cp)?;
+    if let (Some(path), Some((written_for, state))) = (from, checkpoint) {
+        // Any contact scheme, any length of run; the same case, scale and bed.
+        if !case.same_except_contact_scheme(&written_for) {
+            anyhow::bail!(
+                "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
+                path.display()
+            );
+        }
+        c.restore(&state).map_err(|e| anyhow::anyhow!("--from {}: cannot restore: {e}", path.display()))?;
     }
     if let Some(skin) = contact.skin {
         c.set_contact_skin(skin);
@@ -222,11 +229,9 @@ pub fn bench_case(
 }
 
 /// Reads the checkpoint at `path` for [`bench_case`]'s `from`: an `f32` checkpoint with
-/// particle states on an `nx × ny × nz` grid (the case's at the benchmarked scale).
-fn read_from(
-    path: &Path,
-    [nx, ny, nz]: [usize; 3],
-) -> anyhow::Result<crate::io::checkpoint::Checkpoint<f32>> {
+/// particle states on an `nx × ny × nz` grid (the case's at the benchmarked scale). Returns
+/// the fingerprint it was written with and the coupled state.
+fn read_from(path: &Path, [nx, ny, nz]: [usize; 3]) -> anyhow::Result<(String, CoupledState<f32>)> {
     let cp = crate::io::checkpoint::read_checkpoint::<f32>(path).map_err(|e| {
         anyhow::anyhow!("--from {}: cannot be read as an f32 slurry checkpoint: {e}", path.display())
     })?;
@@ -243,33 +248,11 @@ fn read_from(
             nz
         );
     }
-    if cp.bodies.is_none() {
+    let Some(bodies) = cp.bodies else {
         anyhow::bail!(
             "--from {}: holds no particle states (not a reproduction's checkpoint)",
             path.display()
         );
-    }
-    Ok(cp)
-}
-
-/// Restores `c` from `cp`, read from `path`, which must have been written for `case` (the
-/// benchmark's stirred case: same scale, bed and impeller), under any contact scheme
-/// ([`crate::case::Case::fingerprint_except_contact_scheme`]) and any length of run.
-fn restore_from(
-    c: &mut Coupled<f32>,
-    case: &crate::case::Case,
-    path: &Path,
-    cp: crate::io::checkpoint::Checkpoint<f32>,
-) -> anyhow::Result<()> {
-    let same = toml::from_str::<crate::case::Case>(&cp.case)
-        .is_ok_and(|k| k.fingerprint_except_contact_scheme() == case.fingerprint_except_contact_scheme());
-    if !same {
-        anyhow::bail!(
-            "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
-            path.display()
-        );
-    }
-    let bodies = cp.bodies.unwrap_or_default();
-    let state = crate::coupling::CoupledState { fluid: cp.state, bodies };
-    c.restore(&state).map_err(|e| anyhow::anyhow!("--from {}: cannot restore: {e}", path.display()))
+    };
+    Ok((cp.case, CoupledState { fluid: cp.state, bodies }))
 }
