@@ -4,7 +4,7 @@
 //! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume]
 //! slurry settle CASE.toml --out DIR [--speed V] [--check-every N] [--min-steps N] [--max-steps N]
 //! slurry check CASE.toml
-//! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--quick] [--out DIR] [--resume]
+//! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--until-steady CAP] [--quick] [--out DIR] [--resume]
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! ```
 //!
@@ -111,6 +111,12 @@ struct ReproduceArgs {
     /// higher one, and the numbers do not depend on it.
     #[arg(long, value_name = "L", allow_negative_numbers = true)]
     mach_limit: Option<f64>,
+    /// Run to steady state: after --revolutions, go on in legs of 10 revolutions until the
+    /// report's steady test passes (drift of ⟨z_p⟩/H over the last 20 revolutions within
+    /// 0.015), to at most CAP revolutions after the ramp (CAP ≥ --revolutions). E.g.
+    /// `--revolutions 100 --until-steady 200`: the paper's "more than 100 revolutions".
+    #[arg(long, value_name = "CAP", allow_negative_numbers = true)]
+    until_steady: Option<f64>,
 }
 
 /// `slurry reproduce --bed`.
@@ -520,6 +526,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         .and_then(|()| reproduce::check_revolutions(revolutions))
         .and_then(|()| a.contact_substeps.map_or(Ok(()), reproduce::check_contact_substeps))
         .and_then(|()| a.mach_limit.map_or(Ok(()), reproduce::check_mach_limit))
+        .and_then(|()| a.until_steady.map_or(Ok(()), |cap| reproduce::check_until_steady(cap, revolutions)))
         .map_err(BadInput)?;
     let contacts = reproduce::ContactOverrides {
         substeps: a.contact_substeps,
@@ -541,8 +548,9 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
                 &names,
                 scale,
                 revolutions,
+                a.until_steady,
                 a.quick,
-                a.scale.is_none() && a.revolutions.is_none()
+                a.scale.is_none() && a.revolutions.is_none() && a.until_steady.is_none()
             )
         );
     }
@@ -567,6 +575,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             },
             contacts,
             mach_limit: a.mach_limit,
+            until_steady: a.until_steady,
         };
         let s = pool
             .install(|| reproduce::reproduce(name, &opts))

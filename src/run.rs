@@ -132,6 +132,33 @@ pub struct RunSummary {
     pub resumed_from: Option<u64>,
 }
 
+impl RunSummary {
+    /// The summary of this session continued by `later` (a resume of the same run in the same
+    /// process, from a checkpoint at or before this session's last step): the steps, the final
+    /// state and the counts of `later`; the start, the initial mass and `resumed_from` of this
+    /// one; times and rows summed; MLUPS over the steps the two stepped.
+    pub fn then(&self, later: &RunSummary) -> RunSummary {
+        let stepped = |s: &RunSummary| s.steps.saturating_sub(s.resumed_from.unwrap_or(0)) as f64;
+        let step_time_s = self.step_time_s + later.step_time_s;
+        let nodes = later.grid.nodes() as f64;
+        RunSummary {
+            wall_time_s: self.wall_time_s + later.wall_time_s,
+            step_time_s,
+            mlups: if step_time_s > 0.0 {
+                nodes * (stepped(self) + stepped(later)) / step_time_s / 1e6
+            } else {
+                0.0
+            },
+            initial_mass: self.initial_mass,
+            relative_mass_change: (later.final_mass - self.initial_mass) / self.initial_mass,
+            max_mach: self.max_mach.max(later.max_mach),
+            output_rows: self.output_rows + later.output_rows,
+            resumed_from: self.resumed_from,
+            ..later.clone()
+        }
+    }
+}
+
 /// The run stopped for numerical trouble. Its Display is the diagnosis.
 #[derive(Clone, Debug, thiserror::Error)]
 #[error("numerical trouble at step {step}: {health}; the time series up to step {last_good} is in {}", timeseries.display())]

@@ -50,6 +50,16 @@ fn scale_range_is_checked_before_anything_starts() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--contact-substeps 0") && stderr.contains("[1, 1024]"), "{stderr}");
     assert!(took < Duration::from_secs(5), "--contact-substeps 0 took {took:?}");
+    for cap in ["50", "NaN", "inf"] {
+        let (code, stderr, took) = reproduce(&["pbt-ld2", "--revolutions", "100", "--until-steady", cap]);
+        assert_eq!(code, 2, "--until-steady {cap}: {stderr}");
+        assert!(
+            stderr.contains(&format!("--until-steady {}", cap.parse::<f64>().unwrap()))
+                && stderr.contains("at least the --revolutions to run first (100)"),
+            "--until-steady {cap}: {stderr}"
+        );
+        assert!(took < Duration::from_secs(5), "--until-steady {cap} took {took:?}");
+    }
 }
 
 #[test]

@@ -43,6 +43,7 @@ fn pbt_ld2_reduced_run() {
         bed: Default::default(),
         contacts: Default::default(),
         mach_limit: None,
+        until_steady: None,
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;
@@ -117,6 +118,34 @@ fn pbt_ld2_reduced_run() {
     assert!(again.record.bed_cached, "the bed of the resume comes from the cache");
     assert!(again.record.run.resumed_from.is_some_and(|k| k > 0 && k <= s.record.run.steps));
     assert_eq!(again.results.snapshot_text(), r.snapshot_text());
+
+    // `--until-steady`: resumed with a cap of 0.2 revolutions, the run goes on in legs (each a
+    // resume in the same process) until the steady test passes or the cap is reached; a
+    // 20-revolution window cannot be covered, so it stops at the cap, not steady. The legs
+    // continue the run bitwise: the time series keeps the rows of the 0.1-revolution run.
+    let rows = |p: &std::path::Path| -> Vec<String> {
+        // Without the last column (MLUPS: a timing).
+        let text = std::fs::read_to_string(p).unwrap();
+        text.lines().map(|l| l.rsplit_once(',').unwrap().0.to_string()).collect()
+    };
+    let before = rows(&opts.out.join("run/timeseries.csv"));
+    let legs =
+        reproduce("pbt-ld2", &ReproduceOptions { resume: true, until_steady: Some(0.2), ..opts.clone() })
+            .unwrap();
+    assert!((legs.record.revolutions - 0.2).abs() < 1e-9, "target {}", legs.record.revolutions);
+    assert_eq!(legs.record.run.steps, 1200, "ramp 1000 steps, then 0.2 revolutions of 1000 steps");
+    assert!(!legs.results.steady);
+    let after = rows(&opts.out.join("run/timeseries.csv"));
+    assert_eq!(after.len(), before.len() + 2, "two more output rows (every 50 steps)");
+    assert_eq!(after[..before.len()], before[..], "the legs change none of the earlier rows");
+    let m = slurry::reproduce::manifest::Manifest::read(&opts.out).unwrap();
+    assert_eq!((m.until_steady, m.steps, m.restarts, m.status.as_str()), (Some(0.2), 1200, 2, "finished"));
+    assert!((m.revolutions_done.unwrap() - 0.2).abs() < 1e-9, "{:?}", m.revolutions_done);
+    assert!(legs.record.run.mlups > 0.0 && legs.record.run.resumed_from.is_some());
+    assert!(
+        slurry::reproduce::check_until_steady(0.05, 0.1).unwrap_err().contains("--until-steady 0.05"),
+        "a cap below the revolutions is refused"
+    );
 
     // `slurry bench --coupled --from`: the coupled step timed from this run's checkpoint (the
     // bed from the same cache) starts at the checkpoint's step, not at the bed's step 0.

@@ -55,8 +55,13 @@ pub struct Manifest {
     pub case: String,
     /// Scale `s`.
     pub scale: f64,
-    /// Revolutions after the ramp asked for.
+    /// Revolutions after the ramp asked for (with `until_steady`, the first leg's).
     pub revolutions: f64,
+    /// `--until-steady CAP`: the run went on past `revolutions`, in legs of
+    /// [`super::STEADY_CHECK_REVOLUTIONS`], until the steady test passed or `CAP` revolutions
+    /// were done (`revolutions_done` says where it stopped, the report whether it is steady).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until_steady: Option<f64>,
     /// Contact settings that differ from the case's.
     pub contacts: ContactOverrides,
     /// Steps of the whole run (ramp and revolutions).
@@ -241,6 +246,7 @@ mod tests {
             case: "pbt-ld2".into(),
             scale: 0.25,
             revolutions: 100.0,
+            until_steady: None,
             contacts: ContactOverrides::default(),
             steps: 101_000,
             status: String::new(),

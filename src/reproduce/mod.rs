@@ -45,7 +45,11 @@
 //! 2. **Stirred run**: the bed's particles as explicit particles, the impeller inserted,
 //!    the ramp (half a revolution) and `R` revolutions, by [`crate::run::run_case`]:
 //!    checkpoints every few revolutions (atomic), `--resume` bitwise identical, progress
-//!    with revolutions, `⟨z_p⟩/H`, `Po`, MLUPS and the time left.
+//!    with revolutions, `⟨z_p⟩/H`, `Po`, MLUPS and the time left. With `--until-steady CAP`
+//!    the run goes on past `R` in legs of [`STEADY_CHECK_REVOLUTIONS`], each a resume of the
+//!    last in the same process (so bitwise the run it continues), until the report's steady
+//!    test passes on the particle history ([`report::steady_test`]) or `CAP` revolutions are
+//!    done; the manifest records the cap and where the run stopped.
 //! 3. **Statistics, figures, report** ([`report`]): from `timeseries.csv`, `particles.h5`
 //!    and `fields.h5` (and the field snapshots at 10 and 90 revolutions), deterministic,
 //!    written atomically.
@@ -327,6 +331,27 @@ pub struct ReproduceOptions {
     /// The stirred run's Mach limit, where it differs from the default 0.3 (a health check:
     /// no number changes, so a run stopped by it can be resumed with a higher one).
     pub mach_limit: Option<f64>,
+    /// `--until-steady CAP`: after `revolutions`, run on in legs of
+    /// [`STEADY_CHECK_REVOLUTIONS`] until the report's steady test passes
+    /// ([`report::steady_test`]), to at most `CAP` revolutions after the ramp.
+    pub until_steady: Option<f64>,
+}
+
+/// Revolutions between two steady tests of `--until-steady`.
+pub const STEADY_CHECK_REVOLUTIONS: f64 = 10.0;
+
+/// Checks `--until-steady CAP` against the revolutions asked for: finite and not below them.
+///
+/// # Errors
+/// The message names `--until-steady`, the value and the bound.
+pub fn check_until_steady(cap: f64, revolutions: f64) -> Result<(), String> {
+    if cap.is_finite() && cap >= revolutions {
+        Ok(())
+    } else {
+        Err(format!(
+            "--until-steady {cap}: must be finite and at least the --revolutions to run first ({revolutions})"
+        ))
+    }
 }
 
 /// The stirred run's settings for a scaled case (derived from the impeller).
@@ -537,6 +562,33 @@ pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
     s
 }
 
+/// The stirred case `c` (made by [`stirred_case`]) with the run's length and snapshots of
+/// `sched` (a leg of `--until-steady`: only the target differs from leg to leg).
+fn stirred_leg(c: &Case, sched: &Schedule) -> Case {
+    let mut s = c.clone();
+    s.run.steps = sched.steps;
+    s.run.snapshots = sched.snapshot_steps();
+    s
+}
+
+/// Revolutions after the ramp that the time series of the run in `run_dir` reaches (its last
+/// row), or `None` when there is none to read.
+fn revolutions_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
+    let path = run_dir.join(crate::run::files::TIMESERIES);
+    let ts = report::read_timeseries(&path, c.grid().nz as f64, sched.steps_per_revolution).ok()?;
+    let last = ts.time.last()?;
+    Some(last - sched.ramp_steps as f64 / sched.steps_per_revolution)
+}
+
+/// The verdict of `--until-steady` when it stops.
+fn verdict(steady: bool) -> &'static str {
+    if steady {
+        "steady"
+    } else {
+        "not steady at the cap"
+    }
+}
+
 /// What the pipeline ran: the report's input besides the run's files ([`report::write_all`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct RunRecord {
@@ -604,6 +656,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         case: name.to_string(),
         scale: opts.scale,
         revolutions: opts.revolutions,
+        until_steady: opts.until_steady,
         contacts: opts.contacts,
         steps: sched.steps,
         status: String::new(),
@@ -616,23 +669,66 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let session = manifest::this_session(rayon::current_num_threads());
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let run_dir = opts.out.join("run");
-    let run = match run_case(
-        &case,
-        &run_dir,
-        RunOptions { quiet: opts.quiet, resume: opts.resume, switch_contacts: opts.switch_contacts },
-    ) {
-        Ok(run) => run,
-        Err(e) => {
-            // The manifest says the session ended and why; the run's files and its last
-            // checkpoint stay for a resume. The run's error is the one reported.
-            let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &format!("{e:#}"));
-            return Err(e);
+    // The run to `opts.revolutions`; with --until-steady, continued in legs of
+    // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's
+    // steady test passes or the cap is reached.
+    let mut target = opts.revolutions;
+    if let (Some(cap), true) = (opts.until_steady, opts.resume) {
+        // A resumed run skips the legs it has already passed.
+        let done = revolutions_in_timeseries(&run_dir, &case, &sched).unwrap_or(0.0);
+        while target < cap && target < done - 1e-9 {
+            target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
         }
+    }
+    let mut so_far: Option<RunSummary> = None;
+    let (run, sched, case) = loop {
+        let sched = schedule(&scaled, target)?;
+        let leg_case = stirred_leg(&case, &sched);
+        let resume = opts.resume || so_far.is_some();
+        let leg = match run_case(
+            &leg_case,
+            &run_dir,
+            RunOptions { quiet: opts.quiet, resume, switch_contacts: opts.switch_contacts },
+        ) {
+            Ok(run) => run,
+            Err(e) => {
+                // The manifest says the session ended and why; the run's files and its last
+                // checkpoint stay for a resume. The run's error is the one reported.
+                let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &format!("{e:#}"));
+                return Err(e);
+            }
+        };
+        let run = match &so_far {
+            Some(earlier) => earlier.then(&leg),
+            None => leg,
+        };
+        so_far = Some(run.clone());
+        let Some(cap) = opts.until_steady else { break (run, sched, leg_case) };
+        let test = report::steady_test(&leg_case, &run_dir)?;
+        if test.steady || target >= cap {
+            if !opts.quiet {
+                eprintln!(
+                    "--until-steady: {} after {target} revolutions ({})",
+                    verdict(test.steady),
+                    test.reason
+                );
+            }
+            break (run, sched, leg_case);
+        }
+        let next = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
+        if !opts.quiet {
+            eprintln!(
+                "--until-steady: not steady after {target} revolutions ({}); on to {next}",
+                test.reason
+            );
+        }
+        target = next;
     };
+    record_file.steps = sched.steps;
     let record = RunRecord {
         case: name.to_string(),
         scale: opts.scale,
-        revolutions: opts.revolutions,
+        revolutions: target,
         schedule: sched,
         bed_cached: cached,
         contacts: opts.contacts,
@@ -666,15 +762,27 @@ mod tests;
 
 /// What a `slurry reproduce` invocation is about to do and about how long it takes on 2
 /// cores, printed before it starts.
-pub fn announce(names: &[String], scale: f64, revolutions: f64, quick: bool, default: bool) -> String {
+pub fn announce(
+    names: &[String],
+    scale: f64,
+    revolutions: f64,
+    until_steady: Option<f64>,
+    quick: bool,
+    default: bool,
+) -> String {
     let grid = [251.0, 251.0, 240.0].map(|n: f64| (n * scale).round());
-    // Measured cost of the coupled step on 2 cores (pbt-ld2, 2026-11-24): about 0.012 µs
-    // (12 ns) per node and 0.2 µs per marker (25 ms per step at s = 1/4, 108 ms at s = 1/2);
-    // the markers scale with s², the nodes with s³, the steps per revolution with s.
-    let steps = (revolutions + 0.5) * 4000.0 * scale;
-    let nodes = grid.iter().product::<f64>();
-    let markers = 1.7e6 * scale * scale;
-    let minutes = steps * (nodes * 0.012e-6 + markers * 0.2e-6) / 60.0;
+    // Measured cost of the coupled step on 2 cores: pbt-ld2 at s = 1/4 at steady state took
+    // 47 ms per step (2026-11-26; 238 140 nodes, the fluid about 3 ms of it), i.e. about
+    // 0.012 µs per node and 0.42 µs per marker of the 1.7e6 s² markers assumed here (the
+    // campaign's cases ran at 38–50 ms); the markers scale with s², the nodes with s³, the
+    // steps per revolution with s.
+    let minutes_for = |revs: f64| {
+        let steps = (revs + 0.5) * 4000.0 * scale;
+        let nodes = grid.iter().product::<f64>();
+        let markers = 1.7e6 * scale * scale;
+        steps * (nodes * 0.012e-6 + markers * 0.42e-6) / 60.0
+    };
+    let minutes = minutes_for(revolutions);
     let per_case = if quick {
         "about a minute per case on 2 cores (a smoke test: 0.75 revolution in all, far from steady)"
             .to_string()
@@ -682,6 +790,12 @@ pub fn announce(names: &[String], scale: f64, revolutions: f64, quick: bool, def
         format!(
             "roughly {minutes:.0} minutes of stepping per case on 2 cores (the default size; not steady: the \
              paper needs 100-200 revolutions; its scale is --scale 1, which takes days)"
+        )
+    } else if let Some(cap) = until_steady {
+        format!(
+            "roughly {minutes:.0} minutes of stepping per case on 2 cores (estimate), then on in legs of \
+             {STEADY_CHECK_REVOLUTIONS} revolutions until steady, at most {cap} revolutions (about {:.0} minutes)",
+            minutes_for(cap)
         )
     } else {
         format!("roughly {minutes:.0} minutes of stepping per case on 2 cores (estimate)")

@@ -85,6 +85,37 @@ pub const ORIENTATION_BINS: usize = 18;
 /// The paper's threshold between bed and mobile particles, `z_p > 0.2 H`.
 pub const MOBILE_HEIGHT: f64 = 0.2;
 
+/// The tank of a stirred case, and its impeller.
+fn tank_of(case: &Case) -> anyhow::Result<(Tank, crate::case::ImpellerSetup)> {
+    let setup = case
+        .impeller_setup()
+        .map_err(|k| anyhow::anyhow!("{k}"))?
+        .ok_or_else(|| anyhow::anyhow!("the case has no impeller"))?;
+    let grid = case.grid();
+    let tank = Tank {
+        t: grid.nx as f64,
+        h: grid.nz as f64,
+        tip_speed: setup.tip_speed(),
+        steps_per_rev: 1.0 / setup.speed().abs(),
+    };
+    Ok((tank, setup))
+}
+
+/// The report's steady test ([`stats::steady_state`] of `⟨z_p⟩/H` over the last
+/// [`STEADY_REVOLUTIONS`], tolerance [`STEADY_DRIFT`]) on the particle history of the finished
+/// run of the stirred case `case` in `run_dir`: what `--until-steady` stops on, and the verdict
+/// [`write_all`] then reports, from the same frames.
+///
+/// # Errors
+/// The case has no impeller, or `particles.h5` cannot be read.
+pub fn steady_test(case: &Case, run_dir: &Path) -> anyhow::Result<stats::SteadyTest> {
+    let (tank, _) = tank_of(case)?;
+    let path = run_dir.join(crate::run::files::PARTICLES_H5);
+    let hist =
+        crate::io::read_particle_history(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(stats::steady_state(&stats::mean_height(&hist.frames, &tank), STEADY_REVOLUTIONS, STEADY_DRIFT))
+}
+
 /// The impeller columns of `timeseries.csv` by revolution.
 #[derive(Clone, Debug, Default)]
 pub struct TimeSeries {
@@ -334,14 +365,8 @@ pub fn write_all(
     out: &Path,
 ) -> anyhow::Result<Results> {
     let run = out.join("run");
-    let setup = case
-        .impeller_setup()
-        .map_err(|k| anyhow::anyhow!("{k}"))?
-        .ok_or_else(|| anyhow::anyhow!("the case has no impeller"))?;
-    let grid = case.grid();
-    let h = grid.nz as f64;
-    let tank =
-        Tank { t: grid.nx as f64, h, tip_speed: setup.tip_speed(), steps_per_rev: 1.0 / setup.speed().abs() };
+    let (tank, setup) = tank_of(case)?;
+    let (grid, h) = (case.grid(), tank.h);
     let timeseries = read_timeseries(&run.join(crate::run::files::TIMESERIES), h, tank.steps_per_rev)?;
     let hist = crate::io::read_particle_history(&run.join(crate::run::files::PARTICLES_H5))
         .with_context(|| format!("cannot read {}", run.join(crate::run::files::PARTICLES_H5).display()))?;

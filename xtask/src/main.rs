@@ -29,7 +29,7 @@ commands:
   tidy             repository rules: imports against ARCHITECTURE.md's module table, modules and
                    verification cases listed in the docs, file length, no ignored tests/todo/dbg
   verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
-  reproduce CASE [--scale S] [--revolutions R] [--bed dry|wet] [--quick] [--out DIR] [--resume] [--all]
+  reproduce CASE [--scale S] [--revolutions R] [--until-steady CAP] [--bed dry|wet] [--quick] [--out DIR] [--resume] [--all]
                    setup, then the paper's case CASE (pbt-ld2, ...): bed, run, statistics,
                    figures and report.md (default size: about 20 min on 2 cores)
   setup            install libhdf5-dev and pkg-config with apt-get if missing
