@@ -8,7 +8,7 @@
 //!
 //! | file (in `ROOT/summary/`) | contents |
 //! |---|---|
-//! | `summary.md` | the table of the six cases (ours beside the paper's, steady or not) and the figures |
+//! | `summary.md` | the table of the six cases (ours beside the paper's, steady or not), the paper's qualitative findings checked ([`Findings`], [`verdicts`]) and the figures |
 //! | `fig05_mean_height_{disk,pbt}` | ⟨z_p⟩/H against revolutions, ℓ/d = 1, 2, 4 |
 //! | `fig06_volume_fraction_{disk,pbt}` | time-averaged solids volume fraction against z/H |
 //! | `fig07_kinetic_energy_{disk,pbt}` | k* of linear (and rotational) motion against z/H |
@@ -77,6 +77,192 @@ fn read_case(dir: &Path) -> anyhow::Result<Option<CaseResult>> {
 /// `json[key]` as a number.
 fn num(json: &serde_json::Value, key: &str) -> Option<f64> {
     json.get(key).and_then(serde_json::Value::as_f64)
+}
+
+/// The numbers behind the paper's qualitative findings, from one case's statistics (the
+/// report's windows: the profiles and pdfs over its last 10 revolutions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Findings {
+    /// The report's verdict.
+    pub steady: bool,
+    /// `⟨z_p⟩/H` over the steady test's window.
+    pub mean_height: f64,
+    /// Mean angle between the cylinder axis and the vertical, all particles (degrees; random
+    /// orientation: 57.3°).
+    pub phi_all: f64,
+    /// The same for the mobile particles (`z_p > 0.2 H`; NaN without any).
+    pub phi_mobile: f64,
+    /// Fraction of the particles with `φ > 60°` (random: 0.5), all.
+    pub flat_all: f64,
+    /// `∫ |pdf − sin φ| dφ` of the mobile particles: 0 for random orientation, 2 for disjoint.
+    pub l1_mobile: f64,
+    /// Linear over rotational kinetic energy, both summed over the height.
+    pub kinetic_ratio: f64,
+    /// Fraction of the solids volume above mid-height (the impeller's plane).
+    pub above_impeller: f64,
+}
+
+impl Findings {
+    /// From a case's statistics.
+    fn of(r: &CaseResult) -> Self {
+        let mean_phi = |pdf: &[(f64, f64)]| {
+            let (w, m) = pdf.iter().fold((0.0, 0.0), |(w, m), &(phi, p)| (w + p, m + p * phi));
+            if w > 0.0 {
+                (m / w).to_degrees()
+            } else {
+                f64::NAN
+            }
+        };
+        let flat = |pdf: &[(f64, f64)]| {
+            let total: f64 = pdf.iter().map(|p| p.1).sum();
+            pdf.iter().filter(|p| p.0 > PI / 3.0).map(|p| p.1).sum::<f64>() / total
+        };
+        let dphi = PI / 2.0 / r.orientation_mobile.len().max(1) as f64;
+        let l1 =
+            r.orientation_mobile.iter().zip(&r.orientation_sin).map(|(p, s)| (p.1 - s.1).abs()).sum::<f64>()
+                * dphi;
+        let sum = |v: &[(f64, f64)]| v.iter().map(|p| p.0).sum::<f64>();
+        let solids = sum(&r.volume_fraction);
+        let above: f64 = r.volume_fraction.iter().filter(|p| p.1 > 0.5).map(|p| p.0).sum();
+        Findings {
+            steady: r.json.get("steady").and_then(serde_json::Value::as_bool).unwrap_or(false),
+            mean_height: num(&r.json, "mean_height").unwrap_or(f64::NAN),
+            phi_all: mean_phi(&r.orientation_all),
+            phi_mobile: mean_phi(&r.orientation_mobile),
+            flat_all: flat(&r.orientation_all),
+            l1_mobile: l1,
+            kinetic_ratio: sum(&r.kinetic_linear) / sum(&r.kinetic_rotational),
+            above_impeller: above / solids,
+        }
+    }
+}
+
+/// The paper's four qualitative findings (its Results and Conclusions), each checked on the
+/// **steady** cases given as `(impeller, ℓ/d, findings)`: a line per finding, saying
+/// "confirmed", "not confirmed" or "not tested" and the numbers that show it.
+///
+/// 1. Longer cylinders are better suspended and lie more horizontally: per impeller with at
+///    least two steady aspect ratios, `⟨z_p⟩/H` and the mean `φ` both rise with ℓ/d.
+/// 2. The mobile particles' pdf of `φ` is close to `sin φ` for ℓ/d = 1: its distance from
+///    `sin φ` is the smallest of the impeller's steady aspect ratios.
+/// 3. Rotational kinetic energy is more than an order of magnitude below linear: the ratio is
+///    at least 10 in every steady case.
+/// 4. The disk leaves few particles above it: less solids above mid-height with the disk than
+///    with the PBT at the same ℓ/d.
+pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
+    let steady: Vec<&(&str, f64, Findings)> = cases.iter().filter(|c| c.2.steady).collect();
+    let of = |imp: &str| {
+        let mut v: Vec<&(&str, f64, Findings)> = steady.iter().copied().filter(|c| c.0 == imp).collect();
+        v.sort_by(|a, b| a.1.total_cmp(&b.1));
+        v
+    };
+    let name = |imp: &str| if imp == "pbt" { "PBT" } else { "disk" };
+    let list = |v: &[&(&str, f64, Findings)], f: &dyn Fn(&Findings) -> String| {
+        v.iter().map(|c| format!("{} at ℓ/d = {}", f(&c.2), c.1)).collect::<Vec<_>>().join(", ")
+    };
+    let rising =
+        |v: &[&(&str, f64, Findings)], f: fn(&Findings) -> f64| v.windows(2).all(|w| f(&w[1].2) > f(&w[0].2));
+    let mut out = Vec::new();
+
+    // 1.
+    let mut parts = Vec::new();
+    for imp in ["disk", "pbt"] {
+        let v = of(imp);
+        if v.len() < 2 {
+            continue;
+        }
+        let (up, flat) = (rising(&v, |f| f.mean_height), rising(&v, |f| f.phi_all));
+        parts.push(format!(
+            "{} for the {}: ⟨z_p⟩/H {}; mean φ {}",
+            match (up, flat) {
+                (true, true) => "confirmed",
+                (true, false) => "better suspended but not flatter",
+                (false, true) => "flatter but not better suspended",
+                (false, false) => "not confirmed",
+            },
+            name(imp),
+            list(&v, &|f| format!("{:.3}", f.mean_height)),
+            list(&v, &|f| format!("{:.1}°", f.phi_all)),
+        ));
+    }
+    out.push(format!(
+        "Longer cylinders are better suspended and lie more horizontally: {}.",
+        if parts.is_empty() {
+            "not tested (needs two aspect ratios of one impeller at steady state)".into()
+        } else {
+            parts.join("; ")
+        }
+    ));
+
+    // 2.
+    let mut parts = Vec::new();
+    for imp in ["disk", "pbt"] {
+        let v = of(imp);
+        let Some(one) = v.iter().find(|c| c.1 == 1.0) else { continue };
+        let closest = v.iter().all(|c| c.2.l1_mobile >= one.2.l1_mobile);
+        parts.push(format!(
+            "{} for the {}: ∫|pdf − sin φ| dφ of the mobile particles {}",
+            if v.len() < 2 {
+                "measured (no other aspect ratio to compare)"
+            } else if closest {
+                "confirmed (closest to sin φ of the aspect ratios)"
+            } else {
+                "not confirmed (not the closest to sin φ)"
+            },
+            name(imp),
+            list(&v, &|f| format!("{:.3}", f.l1_mobile)),
+        ));
+    }
+    out.push(format!(
+        "The mobile particles' orientation is close to random (sin φ) for ℓ/d = 1: {}.",
+        if parts.is_empty() {
+            "not tested (needs ℓ/d = 1 at steady state)".into()
+        } else {
+            parts.join("; ")
+        }
+    ));
+
+    // 3.
+    let all: Vec<&(&str, f64, Findings)> = steady.to_vec();
+    out.push(format!(
+        "Rotational kinetic energy is more than an order of magnitude below linear: {}.",
+        if all.is_empty() {
+            "not tested (no case at steady state)".into()
+        } else {
+            format!(
+                "{}: linear over rotational {}",
+                if all.iter().all(|c| c.2.kinetic_ratio >= 10.0) { "confirmed" } else { "not confirmed" },
+                all.iter()
+                    .map(|c| format!("{:.0} ({} ℓ/d = {})", c.2.kinetic_ratio, name(c.0), c.1))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    ));
+
+    // 4.
+    let pairs: Vec<String> = of("disk")
+        .iter()
+        .filter_map(|d| {
+            let p = of("pbt").into_iter().find(|p| p.1 == d.1)?;
+            Some(format!(
+                "{} at ℓ/d = {}: {:.1} % of the solids above mid-height with the disk, {:.1} % with the PBT",
+                if d.2.above_impeller < p.2.above_impeller { "confirmed" } else { "not confirmed" },
+                d.1,
+                100.0 * d.2.above_impeller,
+                100.0 * p.2.above_impeller
+            ))
+        })
+        .collect();
+    out.push(format!(
+        "The disk leaves few particles above it: {}.",
+        if pairs.is_empty() {
+            "not tested (needs a disk case and the PBT at the same ℓ/d, both steady)".into()
+        } else {
+            pairs.join("; ")
+        }
+    ));
+    out
 }
 
 /// Writes `root/summary/` from the cases' reports under `root/CASE/`; returns the path of
@@ -149,6 +335,41 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
             ours("po"),
             theirs("po")
         );
+    }
+
+    md.push_str(
+        "\n## The paper's qualitative findings\n\nChecked on the steady cases only (`verdicts` in \
+         `src/reproduce/summary.rs`); the numbers of every case run, steady or not, below. φ is the angle between \
+         the cylinder axis and the vertical (random orientation: mean 57.3°, 50 % beyond 60°); the pdfs and \
+         profiles are over each run's last 10 revolutions.\n\n",
+    );
+    let found: Vec<(&str, f64, Findings)> = cases
+        .iter()
+        .filter_map(|(_, p, r)| r.as_ref().map(|r| (p.impeller.as_str(), p.aspect_ratio, Findings::of(r))))
+        .collect();
+    for v in verdicts(&found) {
+        let _ = writeln!(md, "- {v}");
+    }
+    md.push_str(
+        "\n| case | steady | ⟨z_p⟩/H | mean φ, all | mean φ, mobile | φ > 60°, all | ∫\\|pdf − sin φ\\| dφ, mobile \
+         | kinetic energy, linear / rotational | solids above mid-height |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (name, _, result) in &cases {
+        if let Some(r) = result {
+            let f = Findings::of(r);
+            let _ = writeln!(
+                md,
+                "| {name} | {} | {:.3} | {:.1}° | {:.1}° | {:.0} % | {:.3} | {:.0} | {:.1} % |",
+                if f.steady { "yes" } else { "no" },
+                f.mean_height,
+                f.phi_all,
+                f.phi_mobile,
+                100.0 * f.flat_all,
+                f.l1_mobile,
+                f.kinetic_ratio,
+                100.0 * f.above_impeller
+            );
+        }
     }
 
     md.push_str(
@@ -272,4 +493,65 @@ fn figures(
         format!("Figure 9 ({label}): pdf of φ for the mobile particles"),
     ));
     Ok(figs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{verdicts, Findings};
+
+    fn f(
+        steady: bool,
+        mean_height: f64,
+        phi_all: f64,
+        l1_mobile: f64,
+        kinetic_ratio: f64,
+        above: f64,
+    ) -> Findings {
+        Findings {
+            steady,
+            mean_height,
+            phi_all,
+            phi_mobile: phi_all - 6.0,
+            flat_all: 0.6,
+            l1_mobile,
+            kinetic_ratio,
+            above_impeller: above,
+        }
+    }
+
+    #[test]
+    fn verdicts_use_the_steady_cases_and_say_what_fails() {
+        // Nothing steady: nothing tested, whatever the numbers.
+        let v = verdicts(&[("pbt", 2.0, f(false, 0.3, 60.0, 0.1, 30.0, 0.3))]);
+        assert_eq!(v.len(), 4);
+        assert!(v.iter().all(|l| l.contains("not tested")), "{v:?}");
+
+        // The two steady PBT cases of the archive (2026-11-26): confirmed, with the numbers.
+        let ld2 = f(true, 0.332, 63.1, 0.104, 34.0, 0.275);
+        let ld4 = f(true, 0.374, 68.7, 0.259, 16.0, 0.348);
+        let v = verdicts(&[("pbt", 4.0, ld4), ("pbt", 2.0, ld2)]);
+        assert!(
+            v[0].contains("confirmed for the PBT: ⟨z_p⟩/H 0.332 at ℓ/d = 2, 0.374 at ℓ/d = 4"),
+            "{}",
+            v[0]
+        );
+        assert!(v[1].contains("not tested"), "{}", v[1]);
+        assert!(
+            v[2].contains("confirmed: linear over rotational 16 (PBT ℓ/d = 4), 34 (PBT ℓ/d = 2)"),
+            "{}",
+            v[2]
+        );
+        assert!(v[3].contains("not tested"), "{}", v[3]);
+
+        // Each finding can fail.
+        let lower = f(true, 0.30, 70.0, 0.5, 8.0, 0.4);
+        let one = f(true, 0.25, 60.0, 0.05, 40.0, 0.2);
+        let disk = f(true, 0.2, 60.0, 0.3, 40.0, 0.45);
+        let v = verdicts(&[("pbt", 2.0, ld2), ("pbt", 4.0, lower), ("pbt", 1.0, one), ("disk", 1.0, disk)]);
+        assert!(v[0].contains("flatter but not better suspended for the PBT"), "{}", v[0]);
+        assert!(v[1].contains("confirmed (closest to sin φ of the aspect ratios) for the PBT"), "{}", v[1]);
+        assert!(v[1].contains("measured (no other aspect ratio to compare) for the disk"), "{}", v[1]);
+        assert!(v[2].starts_with("Rotational") && v[2].contains(": not confirmed:"), "{}", v[2]);
+        assert!(v[3].contains("not confirmed at ℓ/d = 1: 45.0 % of the solids above mid-height with the disk, 20.0 % with the PBT"), "{}", v[3]);
+    }
 }
