@@ -555,18 +555,16 @@ pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
     let mut s = c.clone();
     s.random_particles.clear();
     s.particles.extend(bed.bed.particles.iter().cloned());
+    scheduled(&s, sched)
+}
+
+/// `c` with the run settings of `sched`: steps, outputs, checkpoints, snapshots (also each leg
+/// of `--until-steady`, whose schedules differ only in their length).
+fn scheduled(c: &Case, sched: &Schedule) -> Case {
+    let mut s = c.clone();
     s.run.steps = sched.steps;
     s.run.output_every = sched.output_every;
     s.run.checkpoint_every = Some(sched.checkpoint_every);
-    s.run.snapshots = sched.snapshot_steps();
-    s
-}
-
-/// The stirred case `c` (made by [`stirred_case`]) with the run's length and snapshots of
-/// `sched` (a leg of `--until-steady`: only the target differs from leg to leg).
-fn stirred_leg(c: &Case, sched: &Schedule) -> Case {
-    let mut s = c.clone();
-    s.run.steps = sched.steps;
     s.run.snapshots = sched.snapshot_steps();
     s
 }
@@ -683,7 +681,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {
         let sched = schedule(&scaled, target)?;
-        let leg_case = stirred_leg(&case, &sched);
+        let leg_case = scheduled(&case, &sched);
         let resume = opts.resume || so_far.is_some();
         let leg = match run_case(
             &leg_case,

@@ -162,6 +162,14 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
     };
     let rising =
         |v: &[&(&str, f64, Findings)], f: fn(&Findings) -> f64| v.windows(2).all(|w| f(&w[1].2) > f(&w[0].2));
+    // A finding's line: its parts, or what it needs when there is none.
+    let finding = |claim: &str, parts: Vec<String>, needs: &str| {
+        if parts.is_empty() {
+            format!("{claim}: not tested (needs {needs}).")
+        } else {
+            format!("{claim}: {}.", parts.join("; "))
+        }
+    };
     let mut out = Vec::new();
 
     // 1.
@@ -185,13 +193,10 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
             list(&v, &|f| format!("{:.1}°", f.phi_all)),
         ));
     }
-    out.push(format!(
-        "Longer cylinders are better suspended and lie more horizontally: {}.",
-        if parts.is_empty() {
-            "not tested (needs two aspect ratios of one impeller at steady state)".into()
-        } else {
-            parts.join("; ")
-        }
+    out.push(finding(
+        "Longer cylinders are better suspended and lie more horizontally",
+        parts,
+        "two aspect ratios of one impeller at steady state",
     ));
 
     // 2.
@@ -213,31 +218,30 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
             list(&v, &|f| format!("{:.3}", f.l1_mobile)),
         ));
     }
-    out.push(format!(
-        "The mobile particles' orientation is close to random (sin φ) for ℓ/d = 1: {}.",
-        if parts.is_empty() {
-            "not tested (needs ℓ/d = 1 at steady state)".into()
-        } else {
-            parts.join("; ")
-        }
+    out.push(finding(
+        "The mobile particles' orientation is close to random (sin φ) for ℓ/d = 1",
+        parts,
+        "ℓ/d = 1 at steady state",
     ));
 
     // 3.
-    let all: Vec<&(&str, f64, Findings)> = steady.to_vec();
-    out.push(format!(
-        "Rotational kinetic energy is more than an order of magnitude below linear: {}.",
-        if all.is_empty() {
-            "not tested (no case at steady state)".into()
-        } else {
-            format!(
-                "{}: linear over rotational {}",
-                if all.iter().all(|c| c.2.kinetic_ratio >= 10.0) { "confirmed" } else { "not confirmed" },
-                all.iter()
-                    .map(|c| format!("{:.0} ({} ℓ/d = {})", c.2.kinetic_ratio, name(c.0), c.1))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        }
+    let parts = if steady.is_empty() {
+        Vec::new()
+    } else {
+        vec![format!(
+            "{}: linear over rotational {}",
+            if steady.iter().all(|c| c.2.kinetic_ratio >= 10.0) { "confirmed" } else { "not confirmed" },
+            steady
+                .iter()
+                .map(|c| format!("{:.0} ({} ℓ/d = {})", c.2.kinetic_ratio, name(c.0), c.1))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )]
+    };
+    out.push(finding(
+        "Rotational kinetic energy is more than an order of magnitude below linear",
+        parts,
+        "a case at steady state",
     ));
 
     // 4.
@@ -254,13 +258,10 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
             ))
         })
         .collect();
-    out.push(format!(
-        "The disk leaves few particles above it: {}.",
-        if pairs.is_empty() {
-            "not tested (needs a disk case and the PBT at the same ℓ/d, both steady)".into()
-        } else {
-            pairs.join("; ")
-        }
+    out.push(finding(
+        "The disk leaves few particles above it",
+        pairs,
+        "a disk case and the PBT at the same ℓ/d, both steady",
     ));
     out
 }
@@ -343,33 +344,32 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
          the cylinder axis and the vertical (random orientation: mean 57.3°, 50 % beyond 60°); the pdfs and \
          profiles are over each run's last 10 revolutions.\n\n",
     );
-    let found: Vec<(&str, f64, Findings)> = cases
+    let found: Vec<(&str, (&str, f64, Findings))> = cases
         .iter()
-        .filter_map(|(_, p, r)| r.as_ref().map(|r| (p.impeller.as_str(), p.aspect_ratio, Findings::of(r))))
+        .filter_map(|(name, p, r)| {
+            r.as_ref().map(|r| (*name, (p.impeller.as_str(), p.aspect_ratio, Findings::of(r))))
+        })
         .collect();
-    for v in verdicts(&found) {
+    for v in verdicts(&found.iter().map(|c| c.1).collect::<Vec<_>>()) {
         let _ = writeln!(md, "- {v}");
     }
     md.push_str(
         "\n| case | steady | ⟨z_p⟩/H | mean φ, all | mean φ, mobile | φ > 60°, all | ∫\\|pdf − sin φ\\| dφ, mobile \
          | kinetic energy, linear / rotational | solids above mid-height |\n|---|---|---|---|---|---|---|---|---|\n",
     );
-    for (name, _, result) in &cases {
-        if let Some(r) = result {
-            let f = Findings::of(r);
-            let _ = writeln!(
-                md,
-                "| {name} | {} | {:.3} | {:.1}° | {:.1}° | {:.0} % | {:.3} | {:.0} | {:.1} % |",
-                if f.steady { "yes" } else { "no" },
-                f.mean_height,
-                f.phi_all,
-                f.phi_mobile,
-                100.0 * f.flat_all,
-                f.l1_mobile,
-                f.kinetic_ratio,
-                100.0 * f.above_impeller
-            );
-        }
+    for (name, (_, _, f)) in &found {
+        let _ = writeln!(
+            md,
+            "| {name} | {} | {:.3} | {:.1}° | {:.1}° | {:.0} % | {:.3} | {:.0} | {:.1} % |",
+            if f.steady { "yes" } else { "no" },
+            f.mean_height,
+            f.phi_all,
+            f.phi_mobile,
+            100.0 * f.flat_all,
+            f.l1_mobile,
+            f.kinetic_ratio,
+            100.0 * f.above_impeller
+        );
     }
 
     md.push_str(
