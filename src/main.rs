@@ -101,6 +101,12 @@ struct ReproduceArgs {
     /// measured).
     #[arg(long)]
     lubrication_limiter: bool,
+    /// Lubrication sub-steps per contact sub-step in the stirred run, 1 … 1024
+    /// (`[contacts] lubrication_substeps`, default 1): the lubrication frozen as a linear map
+    /// of the bodies' velocities at each contact evaluation and stepped this many times
+    /// (cheaper at fewer --contact-substeps; not the default, its effect is being measured).
+    #[arg(long, value_name = "M")]
+    lubrication_substeps: Option<usize>,
     /// How the bed is settled: `dry` (no fluid, amplified gravity against a linear drag;
     /// minutes) or `wet` (in the fluid under the case's gravity, as the paper does; about
     /// 20 min at the default scale, 16× that at s = 1/2). Each is cached separately.
@@ -179,6 +185,10 @@ struct BenchArgs {
     /// that fewer sub-steps stay stable.
     #[arg(long)]
     lubrication_limiter: bool,
+    /// With --coupled: lubrication sub-steps per contact sub-step, 1 … 1024
+    /// (`[contacts] lubrication_substeps`, default 1).
+    #[arg(long, value_name = "M")]
+    lubrication_substeps: Option<usize>,
     /// With --coupled: start from this checkpoint of a reproduction of the case (one case, one
     /// scale; e.g. `run/checkpoint.h5` of a run at steady state) instead of the settled bed.
     #[arg(long, value_name = "CHECKPOINT")]
@@ -222,10 +232,14 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     if let Some(n) = a.contact_substeps {
         slurry::reproduce::check_contact_substeps(n).map_err(BadInput)?;
     }
+    if let Some(m) = a.lubrication_substeps {
+        slurry::reproduce::check_lubrication_substeps(m, a.lubrication_limiter).map_err(BadInput)?;
+    }
     let contact = slurry::reproduce::bench::ContactOptions {
         skin: a.skin,
         substeps: a.contact_substeps,
         limiter: a.lubrication_limiter,
+        lubrication_substeps: a.lubrication_substeps,
     };
     let threads = a.threads.iter().copied().max().unwrap_or(2);
     let pool = thread_pool(NonZeroUsize::new(threads))?;
@@ -525,12 +539,17 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
     reproduce::check_scale(scale)
         .and_then(|()| reproduce::check_revolutions(revolutions))
         .and_then(|()| a.contact_substeps.map_or(Ok(()), reproduce::check_contact_substeps))
+        .and_then(|()| {
+            a.lubrication_substeps
+                .map_or(Ok(()), |m| reproduce::check_lubrication_substeps(m, a.lubrication_limiter))
+        })
         .and_then(|()| a.mach_limit.map_or(Ok(()), reproduce::check_mach_limit))
         .and_then(|()| a.until_steady.map_or(Ok(()), |cap| reproduce::check_until_steady(cap, revolutions)))
         .map_err(BadInput)?;
     let contacts = reproduce::ContactOverrides {
         substeps: a.contact_substeps,
         lubrication_limiter: a.lubrication_limiter,
+        lubrication_substeps: a.lubrication_substeps,
     };
     let pool = thread_pool(a.threads)?;
     let root = PathBuf::from("target").join("reproduce");

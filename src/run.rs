@@ -652,7 +652,7 @@ fn restore<T: Real + hdf5::H5Type>(
     let switched = || relaxed.is_some_and(|c| c.same_except_contact_scheme(&checkpoint.case));
     if checkpoint.case != fingerprint && !switched() {
         let also = if relaxed.is_some() {
-            ", and with --switch-contacts [contacts] substeps and lubrication_limiter"
+            ", and with --switch-contacts [contacts] substeps, lubrication_limiter and lubrication_substeps"
         } else {
             ""
         };

@@ -325,8 +325,13 @@ fn warm_evaluation_does_not_grow_buffers() {
 #[test]
 fn sub_cycling_conserves_linear_momentum() {
     // Free bodies only, no walls, no external loads: Σ m v is conserved to round-off through
-    // contacts (every marker pair applies ±f to two bodies in the same sub-step).
-    for seed in 0..8u64 {
+    // contacts (every marker pair applies ±f to two bodies in the same sub-step), with the
+    // explicit law (8 sub-steps) and with lubrication sub-steps (2 × 4: each pair's frozen
+    // operator gives ±F).
+    let split = ContactParams { lubrication_substeps: 4, ..Default::default() };
+    for (seed, (params, n_sub)) in
+        (0..16u64).zip([(ContactParams::default(), 8), (split, 2)].into_iter().cycle())
+    {
         let mut c = config(seed);
         c.walls = Walls::none();
         for b in &mut c.bodies {
@@ -337,10 +342,10 @@ fn sub_cycling_conserves_linear_momentum() {
         }
         let p0: Vec3 = c.bodies.iter().map(|b| b.linear_momentum()).sum();
         let scale: f64 = c.bodies.iter().map(|b| b.linear_momentum().norm()).sum();
-        let mut ct = Contacts::new(ContactParams::default(), c.walls, &c.bodies, &c.markers).unwrap();
+        let mut ct = Contacts::new(params, c.walls, &c.bodies, &c.markers).unwrap();
         let mut impulse = 0.0f64;
         for _ in 0..20 {
-            let avg = ct.advance(&mut c.bodies, &c.markers, 8);
+            let avg = ct.advance(&mut c.bodies, &c.markers, n_sub);
             impulse += avg.iter().map(|l| l.force.norm()).sum::<f64>();
         }
         let p1: Vec3 = c.bodies.iter().map(|b| b.linear_momentum()).sum();

@@ -50,6 +50,15 @@ fn scale_range_is_checked_before_anything_starts() {
     assert_eq!(code, 2, "{stderr}");
     assert!(stderr.contains("--contact-substeps 0") && stderr.contains("[1, 1024]"), "{stderr}");
     assert!(took < Duration::from_secs(5), "--contact-substeps 0 took {took:?}");
+    for (args, says) in [
+        (&["pbt-ld2", "--lubrication-substeps", "0"][..], "[1, 1024]"),
+        (&["pbt-ld2", "--lubrication-substeps", "4", "--lubrication-limiter"][..], "choose one"),
+    ] {
+        let (code, stderr, took) = reproduce(args);
+        assert_eq!(code, 2, "{args:?}: {stderr}");
+        assert!(stderr.contains("--lubrication-substeps") && stderr.contains(says), "{args:?}: {stderr}");
+        assert!(took < Duration::from_secs(5), "{args:?} took {took:?}");
+    }
     for cap in ["50", "NaN", "inf"] {
         let (code, stderr, took) = reproduce(&["pbt-ld2", "--revolutions", "100", "--until-steady", cap]);
         assert_eq!(code, 2, "--until-steady {cap}: {stderr}");

@@ -202,7 +202,7 @@ impl Case {
         let _ = writeln!(
             s,
             "contacts    k {}, δ0 {}, λ {}, kⁿ {}, δ_d {}, δ_sat {}, kᵗ {}; elastic {}, lubrication {}; \
-             {} sub-steps per step",
+             {} sub-steps per step{}",
             p.k,
             p.delta0,
             p.lambda,
@@ -212,7 +212,12 @@ impl Case {
             p.k_t,
             on(p.elastic),
             on(p.lubrication),
-            p.substeps
+            p.substeps,
+            match (p.lubrication_limiter, p.lubrication_substeps) {
+                (true, _) => ", lubrication limiter on".to_string(),
+                (false, 1) => String::new(),
+                (false, m) => format!(", {m} lubrication sub-steps each"),
+            }
         );
     }
 }

@@ -210,8 +210,8 @@ impl Case {
         toml::to_string(&c).unwrap_or_default()
     }
 
-    /// [`Case::fingerprint`] with the contact scheme's cost settings, `[contacts] substeps`
-    /// and `lubrication_limiter`, set to their defaults: what a checkpoint must match for a
+    /// [`Case::fingerprint`] with the contact scheme's cost settings, `[contacts] substeps`,
+    /// `lubrication_limiter` and `lubrication_substeps`, set to their defaults: what a checkpoint must match for a
     /// resume that switches the contact scheme (`RunOptions::switch_contacts`). The model
     /// (Table 1's constants, which parts act) must still match.
     pub fn fingerprint_except_contact_scheme(&self) -> String {
@@ -220,6 +220,7 @@ impl Case {
             let d = crate::contact::ContactParams::default();
             p.substeps = d.substeps;
             p.lubrication_limiter = d.lubrication_limiter;
+            p.lubrication_substeps = d.lubrication_substeps;
         }
         c.fingerprint()
     }

@@ -14,6 +14,7 @@ use crate::rigid::{Marker, RigidBody, Vec3};
 use super::broad::BroadPhase;
 use super::force::Pose;
 use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
+use super::operator::{lubrication_loads, velocity, Mat6, PairOperator, Vec6};
 use super::params::{ContactParamError, ContactParams, Walls};
 use super::patches::Patches;
 use super::slots::{accumulate, inverse_masses, stiffness_rates, ContactLoad, ContactStats, Slot};
@@ -45,6 +46,16 @@ pub struct Contacts {
     reference: Vec<Pose>,
     slots: Vec<Slot>,
     wall_slots: Vec<Slot>,
+    /// With lubrication sub-steps (module [`super`], "Lubrication sub-steps"): per listed pair
+    /// and per body against the walls, the lubrication of the last evaluation as a linear
+    /// map of the velocities, whether it has any (an interacting marker pair), the bodies'
+    /// velocities it is applied to, and the loads it gives. Empty otherwise.
+    ops: Vec<PairOperator>,
+    wall_ops: Vec<Mat6>,
+    active: Vec<bool>,
+    wall_active: Vec<bool>,
+    velocities: Vec<Vec6>,
+    pub(crate) lubrication: Vec<ContactLoad>,
     pub(crate) loads: Vec<ContactLoad>,
     /// Per body `(Σ c, Σ k w)` of the last evaluation ([`ContactStats::damping_rate`]).
     stiffness: Vec<[f64; 2]>,
@@ -61,6 +72,8 @@ pub struct Contacts {
     pub(crate) external: Vec<ContactLoad>,
     pub(crate) external_prev: Vec<Option<ContactLoad>>,
     pub(crate) average: Vec<ContactLoad>,
+    /// The lubrication summed over the lubrication sub-steps of a contact sub-step.
+    pub(crate) lubrication_sum: Vec<ContactLoad>,
 }
 
 impl Contacts {
@@ -114,6 +127,12 @@ impl Contacts {
             reference: Vec::with_capacity(n),
             slots: Vec::new(),
             wall_slots: Vec::with_capacity(n),
+            ops: Vec::new(),
+            wall_ops: Vec::new(),
+            active: Vec::new(),
+            wall_active: Vec::new(),
+            velocities: Vec::new(),
+            lubrication: Vec::new(),
             loads: vec![ContactLoad::ZERO; n],
             stiffness: vec![[0.0; 2]; n],
             inverse_mass: Vec::with_capacity(n),
@@ -125,6 +144,7 @@ impl Contacts {
             external: Vec::with_capacity(n),
             external_prev: vec![None; n],
             average: vec![ContactLoad::ZERO; n],
+            lubrication_sum: Vec::new(),
         })
     }
 
@@ -175,10 +195,17 @@ impl Contacts {
             + self.broad.capacity()
             + self.slots.capacity()
             + self.wall_slots.capacity()
+            + self.ops.capacity()
+            + self.wall_ops.capacity()
+            + self.active.capacity()
+            + self.wall_active.capacity()
+            + self.velocities.capacity()
+            + self.lubrication.capacity()
             + self.loads.capacity()
             + self.stiffness.capacity()
             + self.external.capacity()
             + self.average.capacity()
+            + self.lubrication_sum.capacity()
     }
 
     /// Checks that the bodies and markers match those given to [`Contacts::new`].
@@ -287,30 +314,61 @@ impl Contacts {
             }
         }
         let (list, params, poses, scratch) = (&self.list, &self.params, &self.poses, &self.scratch);
-        let reach2 = self.reach * self.reach;
         self.stats.candidate_pairs = list.pairs().len();
+        let operators = params.lubrication_substeps > 1;
+        let pairs = list.pairs().len();
         self.slots.clear();
-        self.slots.resize(list.pairs().len(), Slot::EMPTY);
+        self.slots.resize(pairs, Slot::EMPTY);
+        // Only the entries of pairs in contact are written and read (no clearing).
+        self.ops.resize(if operators { pairs } else { 0 }, PairOperator::ZERO);
         // Chunks of pairs, one scratch lock each.
-        self.slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| {
+        let chunk = |c: usize, out: &mut [Slot], mut ops: Option<&mut [PairOperator]>| {
             let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
             let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
             for (o, slot) in out.iter_mut().enumerate() {
-                *slot = list.pair_slot(c * EVAL_CHUNK + o, poses, markers, params, reach2, &mut s);
+                let op = ops.as_deref_mut().map(|ops| &mut ops[o]);
+                *slot = list.pair_slot(c * EVAL_CHUNK + o, poses, markers, params, &mut s, op);
             }
-        });
+        };
+        if operators {
+            (self.slots.par_chunks_mut(EVAL_CHUNK), self.ops.par_chunks_mut(EVAL_CHUNK))
+                .into_par_iter()
+                .enumerate()
+                .for_each(|(c, (out, ops))| chunk(c, out, Some(ops)));
+        } else {
+            self.slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| chunk(c, out, None));
+        }
         self.wall_slots.clear();
         self.wall_slots.resize(bodies.len(), Slot::EMPTY);
+        self.wall_ops.resize(if operators { bodies.len() } else { 0 }, Mat6::zeros());
         if !self.wall_list.is_empty() {
             let walls = &self.wall_list;
-            self.wall_slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| {
+            let chunk = |c: usize, out: &mut [Slot], mut ops: Option<&mut [Mat6]>| {
                 let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
                 let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
                 for (o, slot) in out.iter_mut().enumerate() {
                     let b = c * EVAL_CHUNK + o;
-                    *slot = list.wall_slot(b, &poses[b], markers, params, walls, &mut s);
+                    let op = ops.as_deref_mut().map(|ops| &mut ops[o]);
+                    *slot = list.wall_slot(b, &poses[b], markers, params, walls, &mut s, op);
                 }
-            });
+            };
+            if operators {
+                (self.wall_slots.par_chunks_mut(EVAL_CHUNK), self.wall_ops.par_chunks_mut(EVAL_CHUNK))
+                    .into_par_iter()
+                    .enumerate()
+                    .for_each(|(c, (out, ops))| chunk(c, out, Some(ops)));
+            } else {
+                self.wall_slots
+                    .par_chunks_mut(EVAL_CHUNK)
+                    .enumerate()
+                    .for_each(|(c, out)| chunk(c, out, None));
+            }
+        }
+        self.active.clear();
+        self.wall_active.clear();
+        if operators {
+            self.active.extend(self.slots.iter().map(|s| s.count > 0));
+            self.wall_active.extend(self.wall_slots.iter().map(|s| s.count > 0));
         }
         self.stiffness.resize(n, [0.0; 2]);
         inverse_masses(bodies, &mut self.inverse_mass);
@@ -326,6 +384,26 @@ impl Contacts {
             &mut self.mobility,
         );
         stiffness_rates(bodies, &self.stiffness, &mut self.stats);
+    }
+
+    /// The lubrication loads of every body from the operators of the last evaluation (which
+    /// must have had [`ContactParams::lubrication_substeps`] above 1) at the bodies' velocities
+    /// `dt` after their clocks (module `operator`, [`velocity`]), into
+    /// `self.lubrication`.
+    pub(crate) fn lubrication_from_operators(&mut self, bodies: &[RigidBody], dt: f64) {
+        debug_assert_eq!(self.ops.len(), self.list.pairs().len());
+        self.velocities.clear();
+        self.velocities.extend(bodies.iter().map(|b| velocity(b, dt)));
+        self.lubrication.resize(bodies.len(), ContactLoad::ZERO);
+        lubrication_loads(
+            self.list.pairs(),
+            &self.ops,
+            &self.active,
+            &self.wall_ops,
+            &self.wall_active,
+            &self.velocities,
+            &mut self.lubrication,
+        );
     }
 
     /// Sets the skin of the marker-pair list (module `list`; default [`DEFAULT_SKIN`]) and

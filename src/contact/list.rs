@@ -45,6 +45,7 @@ use crate::rigid::{Marker, Mat3, RigidBody, Vec3};
 
 use super::force::{pair_force, wall_distance, wall_force, Pose, WorldMarker};
 use super::grid::{fill, for_cells, Geometry};
+use super::operator::{LubMoments, Mat6, PairOperator};
 use super::params::ContactParams;
 use super::patches::Patches;
 use super::slots::Slot;
@@ -690,9 +691,11 @@ impl PairList {
         poses: &[Pose],
         markers: &[M],
         p: &ContactParams,
-        reach2: f64,
         s: &mut Scratch,
+        op: Option<&mut PairOperator>,
     ) -> Slot {
+        let reach = p.reach();
+        let reach2 = reach * reach;
         let mut slot = Slot::EMPTY;
         let (a, b) = self.cur.pairs[k];
         let (pa, pb) = (&poses[a as usize], &poses[b as usize]);
@@ -714,6 +717,7 @@ impl PairList {
         // are: a branch per pair would be mispredicted), then through the force law in order.
         let mpairs = &self.cur.mpairs[self.cur.pair_start[k] as usize..self.cur.pair_start[k + 1] as usize];
         let mut within = [[0u32; 2]; FILTER_CHUNK];
+        let mut lub = op.is_some().then_some(LubMoments::ZERO);
         for chunk in mpairs.chunks(FILTER_CHUNK) {
             let mut n = 0;
             for &[i, j] in chunk {
@@ -725,7 +729,16 @@ impl PairList {
                 let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
                 if let Some(h) = pair_force(p, mi, mj) {
                     slot.add_pair(&h, p, &mi.r, &mj.r, pa, pb);
+                    if let Some(lub) = lub.as_mut() {
+                        lub.add(&h, &mi.r, &mj.r);
+                    }
                 }
+            }
+        }
+        // The operator is read only where the slot has a contact (`Contacts::evaluate`).
+        if let (Some(op), Some(lub)) = (op, lub) {
+            if slot.count > 0 {
+                *op = lub.operator();
             }
         }
         slot
@@ -733,6 +746,7 @@ impl PairList {
 
     /// The loads of the walls on body `b` (at `pose`): its listed markers within the cutoff of a
     /// wall, summed in list order (marker, then wall: the oracle's).
+    #[allow(clippy::too_many_arguments)] // the pair_slot arguments, plus the walls
     pub fn wall_slot<M: AsRef<[Marker]>>(
         &self,
         b: usize,
@@ -741,6 +755,7 @@ impl PairList {
         p: &ContactParams,
         walls: &[(usize, f64, Vec3)],
         s: &mut Scratch,
+        op: Option<&mut Mat6>,
     ) -> Slot {
         let mut slot = Slot::EMPTY;
         let range = self.cur.wall_start[b] as usize..self.cur.wall_start[b + 1] as usize;
@@ -750,6 +765,7 @@ impl PairList {
         let side = &self.cur.wside[self.cur.wside_start[b] as usize..self.cur.wside_start[b + 1] as usize];
         place(pose, markers[b].as_ref(), side, &mut s.a);
         let cutoff = p.cutoff();
+        let mut lub = op.is_some().then_some(LubMoments::ZERO);
         for &[i, w] in &self.cur.wpairs[range] {
             let (axis, plane, nhat) = &walls[w as usize];
             let m = &s.a[i as usize];
@@ -758,6 +774,14 @@ impl PairList {
             }
             if let Some(h) = wall_force(p, *axis, *plane, nhat, &m.x, &m.n, &m.u) {
                 slot.add_wall(&h, p, &m.r, pose);
+                if let Some(lub) = lub.as_mut() {
+                    lub.add(&h, &m.r, &m.r);
+                }
+            }
+        }
+        if let (Some(op), Some(lub)) = (op, lub) {
+            if slot.count > 0 {
+                *op = lub.wall_block();
             }
         }
         slot

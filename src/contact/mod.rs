@@ -202,6 +202,38 @@
 //! rare stiff chain would blow up, but it is not yet shown to leave the coupled results
 //! unchanged at fewer sub-steps.
 //!
+//! ## Lubrication sub-steps (opt-in: [`ContactParams::lubrication_substeps`] `= m > 1`)
+//!
+//! The damping is the stiff part (rates 16–22 per fluid step in the dense beds at s = 1/4,
+//! `slurry bench --coupled`), the spring is not (rates ≤ 4), yet every sub-step evaluates both
+//! from the marker pairs. Table 1's lubrication is linear in the relative velocity, so an
+//! evaluation can hand it on as a linear map of the bodies' velocities (module `operator`): per
+//! interacting body pair `(a, b)` three 6 × 6 blocks with `load_a = K_ab V_b − K_aa V_a`,
+//! `load_b = K_abᵀ V_a − K_bb V_b` (`V = (v, ω)`), summed over the pair's marker pairs with the
+//! evaluation's normals, gaps, weights and lever arms, and per body one block against the
+//! walls. With `m > 1` each contact sub-step of length `h` is split into `m` lubrication
+//! sub-steps of `h/m`: the elastic load of the evaluation (at the mid-sub-step pose) is held,
+//! the lubrication is recomputed from the bodies' current velocities through the frozen map
+//! (a prescribed body's at the lubrication sub-step's midpoint), the external load is
+//! extrapolated to that midpoint as before, and every body steps by `h/m`. The reported load is
+//! the elastic part plus the lubrication averaged over the lubrication sub-steps.
+//!
+//! What it keeps: at the evaluation's velocities the map gives the law's lubrication to
+//! round-off (`operator` tests); `K_aa`, `K_bb` are symmetric positive semi-definite and a
+//! pair's power is `−Δuᵀ D Δu ≤ 0`: no energy is created; `+F`/`−F` per pair (momentum to
+//! round-off). The damping's stability is the explicit law's at the step `h/m`: saturated
+//! contacts decay by `(1 − c h/(m m_red))^{n_sub m}` exactly (`contacts_dry`). What it changes:
+//! the lubrication's geometry is frozen and the elastic force held over `h` instead of being
+//! re-evaluated every `h/m`. With `n_sub = 2`, `m = 4` (the default's 8 damping steps) the
+//! collisions of `contacts_dry` change their restitution by at most 2.0e-4 and their closest
+//! approach by at most 1.0e-3, less than the default's own spread over 4 … 32 sub-steps.
+//!
+//! **Cost** (`slurry bench --coupled`, s = 1/4, 2 threads, from run checkpoints, one window):
+//! pbt-ld2 at steady state, contacts 15.8 ms per fluid step at the default against 10.8 ms
+//! at `2 × 4` (step 46.6 → 42.1–45.0 ms); pbt-ld1 after 33 revolutions (1644 cylinders, most
+//! in the bed), contacts 35.5 → 18.3 ms, step 69.7 → 47.2 ms. Not the default until a steady
+//! run shows the statistics unchanged (reproduce/README.md).
+//!
 //! # Known deviations of the model (measured by `contacts_dry`)
 //!
 //! - With Table 1's parameters, point and edge impacts of `d = 12` bodies come closer than
@@ -242,6 +274,7 @@ mod contacts;
 mod force;
 mod grid;
 mod list;
+mod operator;
 pub mod oracle;
 mod params;
 mod patches;
@@ -251,7 +284,7 @@ mod subcycle;
 pub use contacts::Contacts;
 pub use list::DEFAULT_SKIN;
 pub use oracle::{brute_force, OracleResult};
-pub use params::{ContactParamError, ContactParams, Walls};
+pub use params::{ContactParamError, ContactParams, Walls, LUBRICATION_SUBSTEPS_MAX};
 pub use slots::{ContactLoad, ContactStats};
 pub use subcycle::step_bodies;
 

@@ -49,6 +49,15 @@ pub struct ContactParams {
     /// [`super`], "Stability analysis"). Used by whoever sub-cycles the bodies
     /// ([`super::step_bodies`]).
     pub substeps: usize,
+    /// Lubrication sub-steps per contact sub-step (≥ 1; default 1; module [`super`],
+    /// "Lubrication sub-steps"). Above 1, each contact evaluation also freezes the lubrication
+    /// of every interacting pair as a linear map of the bodies' velocities (its normals,
+    /// weights, gaps and lever arms those of the evaluation), and the sub-step is split into
+    /// this many parts, each with the lubrication recomputed from the bodies' current
+    /// velocities through that map and the elastic load held: the stiff damping gets short
+    /// steps without a marker-pair evaluation for each. 1: Table 1's law at every evaluation,
+    /// bitwise the scheme without this option. Not with the lubrication limiter.
+    pub lubrication_substeps: usize,
 }
 
 impl Default for ContactParams {
@@ -66,9 +75,13 @@ impl Default for ContactParams {
             lubrication: true,
             lubrication_limiter: false,
             substeps: super::DEFAULT_SUBSTEPS,
+            lubrication_substeps: 1,
         }
     }
 }
+
+/// The most lubrication sub-steps per contact sub-step ([`ContactParams::lubrication_substeps`]).
+pub const LUBRICATION_SUBSTEPS_MAX: usize = 1024;
 
 /// A contact parameter outside its allowed range.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -83,8 +96,10 @@ pub struct ContactParamError {
 }
 
 impl ContactParams {
-    /// Checks that `k, δ0, λ, kⁿ, δ_d, kᵗ` are positive and finite and that
-    /// `0 < δ_sat < δ_d`; the error names the first offending parameter and its range.
+    /// Checks that `k, δ0, λ, kⁿ, δ_d, kᵗ` are positive and finite, that
+    /// `0 < δ_sat < δ_d`, and that `lubrication_substeps` is in
+    /// `[1, LUBRICATION_SUBSTEPS_MAX]` (and 1 with the limiter on); the error names the first
+    /// offending parameter and its range.
     pub fn validate(&self) -> Result<(), ContactParamError> {
         let positive = [
             ("k", self.k),
@@ -104,6 +119,20 @@ impl ContactParams {
                 name: "delta_sat",
                 value: self.delta_sat,
                 allowed: format!("in (0, delta_d = {})", self.delta_d),
+            });
+        }
+        if !(1..=LUBRICATION_SUBSTEPS_MAX).contains(&self.lubrication_substeps) {
+            return Err(ContactParamError {
+                name: "lubrication_substeps",
+                value: self.lubrication_substeps as f64,
+                allowed: format!("an integer in [1, {LUBRICATION_SUBSTEPS_MAX}] (lubrication sub-steps per contact sub-step)"),
+            });
+        }
+        if self.lubrication_substeps > 1 && self.lubrication_limiter {
+            return Err(ContactParamError {
+                name: "lubrication_substeps",
+                value: self.lubrication_substeps as f64,
+                allowed: "1 when lubrication_limiter = true (the two are alternative treatments of the stiff damping)".into(),
             });
         }
         Ok(())
@@ -215,6 +244,13 @@ mod tests {
         assert_eq!(e.name, "lambda");
         let e = ContactParams { delta_sat: 0.0, ..Default::default() }.validate().unwrap_err();
         assert_eq!(e.name, "delta_sat");
+        let e = ContactParams { lubrication_substeps: 0, ..Default::default() }.validate().unwrap_err();
+        assert_eq!(e.name, "lubrication_substeps");
+        assert!(e.to_string().contains("[1, 1024]"), "{e}");
+        let both = ContactParams { lubrication_substeps: 4, lubrication_limiter: true, ..Default::default() };
+        let e = both.validate().unwrap_err();
+        assert!(e.to_string().contains("lubrication_limiter"), "{e}");
+        ContactParams { lubrication_substeps: 4, ..Default::default() }.validate().unwrap();
     }
 
     #[test]

@@ -138,6 +138,14 @@ impl Slot {
             self.mob += h.damping + h.damping_t;
             self.mob_a += rotational_mobility(h, ri, pa);
             self.mob_b += rotational_mobility(h, rj, pb);
+        } else if p.lubrication_substeps > 1 {
+            // Lubrication sub-steps: the lubrication goes into the pair's operator (module
+            // `operator`), the slot holds the elastic part only.
+            let e = &h.elastic;
+            self.fa += e;
+            self.ta += ri.cross(e);
+            self.fb -= e;
+            self.tb += rj.cross(&(-e));
         } else {
             // The explicit law: one force per pair, in the elastic sums.
             let f = &(h.elastic + h.lub);
@@ -160,7 +168,7 @@ impl Slot {
             self.mob += h.damping + h.damping_t;
             self.mob_a += rotational_mobility(h, r, pose);
         } else {
-            let f = h.elastic + h.lub;
+            let f = if p.lubrication_substeps > 1 { h.elastic } else { h.elastic + h.lub };
             self.fa += f;
             self.ta += r.cross(&f);
         }

@@ -118,11 +118,17 @@ impl Contacts {
         self.external_prev.resize(n, None);
         self.average.clear();
         self.average.resize(n, ContactLoad::ZERO);
+        let m_lub = self.params().lubrication_substeps;
         for k in 0..n_sub {
             self.poses.clear();
             self.poses.extend(bodies.iter().map(|b| Pose::predicted(b, 0.5 * h)));
             let limited = if self.params().lubrication_limiter { h } else { 0.0 };
             self.evaluate(bodies, markers, limited);
+            if m_lub > 1 {
+                self.lubrication_substeps(bodies, k, h, m_lub);
+                observer(k, bodies, &self.loads);
+                continue;
+            }
             let s = (k as f64 + 0.5) * h;
             for (i, b) in bodies.iter_mut().enumerate() {
                 let c = self.loads[i];
@@ -159,6 +165,59 @@ impl Contacts {
             self.average[i].torque *= inv;
         }
         &self.average
+    }
+
+    /// Contact sub-step `k` (of length `h`) in `m` lubrication sub-steps (module [`super`],
+    /// "Lubrication sub-steps"), after its evaluation: in each, every free body feels the
+    /// external load at the lubrication sub-step's midpoint, the elastic load of the
+    /// evaluation, and the lubrication of the evaluation's operators at the bodies' current
+    /// velocities (a prescribed body's at the midpoint); each body steps by `h/m`. The
+    /// average load of the contact sub-step (elastic plus mean lubrication) is added to
+    /// `self.average` and left in `self.loads` for the observer.
+    fn lubrication_substeps(&mut self, bodies: &mut [RigidBody], k: usize, h: f64, m: usize) {
+        let hm = h / m as f64;
+        let inv = 1.0 / m as f64;
+        let n = bodies.len();
+        // `self.loads` holds the elastic loads of the evaluation; the lubrication is summed
+        // over the lubrication sub-steps into `sum`.
+        let mut sum = std::mem::take(&mut self.lubrication_sum);
+        sum.clear();
+        sum.resize(n, ContactLoad::ZERO);
+        for j in 0..m {
+            self.lubrication_from_operators(bodies, 0.5 * hm);
+            let s = k as f64 * h + (j as f64 + 0.5) * hm;
+            for (i, b) in bodies.iter_mut().enumerate() {
+                let (e, l) = (self.loads[i], self.lubrication[i]);
+                sum[i].force += l.force;
+                sum[i].torque += l.torque;
+                if !b.is_free() {
+                    b.step(hm);
+                    continue;
+                }
+                let x = self.external[i];
+                let ext = match (b.load_scheme, self.external_prev[i]) {
+                    (LoadScheme::AdamsBashforth2, Some(p)) => ContactLoad {
+                        force: x.force + (x.force - p.force) * s,
+                        torque: x.torque + (x.torque - p.torque) * s,
+                    },
+                    _ => x,
+                };
+                b.add_force(ext.force + e.force + l.force);
+                b.add_torque(ext.torque + e.torque + l.torque);
+                let scheme = b.load_scheme;
+                b.load_scheme = LoadScheme::Constant;
+                b.step(hm);
+                b.load_scheme = scheme;
+            }
+        }
+        for i in 0..n {
+            let c = &mut self.loads[i];
+            c.force += sum[i].force * inv;
+            c.torque += sum[i].torque * inv;
+            self.average[i].force += c.force;
+            self.average[i].torque += c.torque;
+        }
+        self.lubrication_sum = sum;
     }
 
     /// The contact loads averaged over the sub-steps of the last [`Contacts::advance`].

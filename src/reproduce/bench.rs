@@ -87,6 +87,8 @@ pub struct CoupledBench {
     pub contact_substeps: usize,
     /// Whether the lubrication limiter was on.
     pub lubrication_limiter: bool,
+    /// Lubrication sub-steps per contact sub-step (1: Table 1's law at every evaluation).
+    pub lubrication_substeps: usize,
     /// The fluid time step the timed steps started from: the warm-up's end, after the
     /// checkpoint's step when started from one.
     pub start_step: u64,
@@ -104,6 +106,9 @@ pub struct ContactOptions {
     pub substeps: Option<usize>,
     /// Turn the lubrication limiter on ([`crate::contact::ContactParams::lubrication_limiter`]).
     pub limiter: bool,
+    /// Lubrication sub-steps per contact sub-step (default: the case's, 1;
+    /// [`crate::contact::ContactParams::lubrication_substeps`]).
+    pub lubrication_substeps: Option<usize>,
 }
 
 /// Measures case `name` at scale `scale`, from its settled bed or, with `from`, from a run's
@@ -155,6 +160,7 @@ pub fn bench_case(
     if let Some(p) = params.contacts.as_mut() {
         p.substeps = contact.substeps.unwrap_or(p.substeps);
         p.lubrication_limiter |= contact.limiter;
+        p.lubrication_substeps = contact.lubrication_substeps.unwrap_or(p.lubrication_substeps);
     }
     let mut c =
         Coupled::new(new_fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
@@ -223,6 +229,7 @@ pub fn bench_case(
         max_spring_rate,
         contact_substeps: params.contacts.map_or(0, |p| p.substeps),
         lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
+        lubrication_substeps: params.contacts.map_or(0, |p| p.lubrication_substeps),
         start_step,
         from: from.map(|p| p.display().to_string()),
     })

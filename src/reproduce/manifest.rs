@@ -282,7 +282,11 @@ mod tests {
         let longer = Manifest {
             revolutions: 130.0,
             steps: 131_000,
-            contacts: ContactOverrides { substeps: Some(2), lubrication_limiter: true },
+            contacts: ContactOverrides {
+                substeps: Some(2),
+                lubrication_limiter: true,
+                lubrication_substeps: None,
+            },
             ..first.clone()
         };
         let m = Manifest::start(dir.path(), longer, true, this_session(2)).unwrap();

@@ -116,6 +116,24 @@ pub fn check_revolutions(revolutions: f64) -> Result<(), String> {
 /// The allowed contact sub-steps per fluid step (`--contact-substeps`; `[contacts] substeps`).
 pub const CONTACT_SUBSTEPS_RANGE: (usize, usize) = (1, 1024);
 
+/// Checks `--lubrication-substeps` (and that it is not combined with `--lubrication-limiter`)
+/// before anything starts.
+///
+/// # Errors
+/// The message names the option, the value and the allowed range.
+pub fn check_lubrication_substeps(m: usize, limiter: bool) -> Result<(), String> {
+    let hi = crate::contact::LUBRICATION_SUBSTEPS_MAX;
+    if !(1..=hi).contains(&m) {
+        return Err(format!("--lubrication-substeps {m} is out of range: it must be in [1, {hi}]"));
+    }
+    if m > 1 && limiter {
+        return Err(format!(
+            "--lubrication-substeps {m} with --lubrication-limiter: choose one (both treat the stiff lubrication damping)"
+        ));
+    }
+    Ok(())
+}
+
 /// Checks `--contact-substeps` before anything starts.
 ///
 /// # Errors
@@ -154,6 +172,10 @@ pub struct ContactOverrides {
     pub substeps: Option<usize>,
     /// Turn the lubrication limiter on ([`crate::contact::ContactParams::lubrication_limiter`]).
     pub lubrication_limiter: bool,
+    /// Lubrication sub-steps per contact sub-step (`None`: the case's, 1;
+    /// [`crate::contact::ContactParams::lubrication_substeps`]).
+    #[serde(default)]
+    pub lubrication_substeps: Option<usize>,
 }
 
 impl ContactOverrides {
@@ -169,6 +191,9 @@ impl ContactOverrides {
                 c.substeps = n;
             }
             c.lubrication_limiter |= self.lubrication_limiter;
+            if let Some(m) = self.lubrication_substeps {
+                c.lubrication_substeps = m;
+            }
         }
     }
 
@@ -180,7 +205,10 @@ impl ContactOverrides {
         let n =
             self.substeps.map_or_else(|| "the case's sub-steps".to_string(), |n| format!("{n} sub-steps"));
         let limiter = if self.lubrication_limiter { ", lubrication limiter on" } else { "" };
-        Some(format!("{n} per fluid step{limiter} (not the default: 8 sub-steps, explicit lubrication)"))
+        let lub = self.lubrication_substeps.filter(|&m| m > 1).map_or_else(String::new, |m| {
+            format!(", {m} lubrication sub-steps each (frozen lubrication operators)")
+        });
+        Some(format!("{n} per fluid step{limiter}{lub} (not the default: 8 sub-steps, explicit lubrication)"))
     }
 }
 

@@ -82,7 +82,7 @@ fn contact_overrides_change_only_the_stirred_runs_contacts() {
     let mut same = c.clone();
     none.apply(&mut same);
     assert_eq!(same, c);
-    let o = ContactOverrides { substeps: Some(2), lubrication_limiter: true };
+    let o = ContactOverrides { substeps: Some(2), lubrication_limiter: true, lubrication_substeps: None };
     let mut changed = c.clone();
     o.apply(&mut changed);
     let k = changed.contacts.unwrap();

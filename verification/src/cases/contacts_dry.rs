@@ -81,6 +81,23 @@
 //!   `b` up to 10.7 (`|g| > 1`): the per-step amplification must satisfy `0 ≤ g < 1` (stable and monotone).
 //!   Each sub-step removes at most `IMPLICIT_LIMIT = 0.9` of the relative velocity the contact
 //!   sees, so `g ≥ 0.1^{n_sub} > 0`; `g < 1 − 1e-6` asks that the damping acts at all.
+//! - **Lubrication sub-steps** (`[contacts] lubrication_substeps`, module doc of
+//!   `slurry::contact`, "Lubrication sub-steps"): every lubricated collision again with 2
+//!   contact sub-steps of 4 lubrication sub-steps each (the same 8 damping steps per fluid step
+//!   as the default, a quarter of the marker-pair evaluations). `lub_substeps_momentum_conservation`
+//!   (≤ 1e-13), `lub_substeps_dissipation` (≥ 0), `lub_substeps_energy_never_exceeds_initial`
+//!   (≤ 1e-12) and `lub_substeps_closest_approach` (≥ `δ_sat`): as above, for the same reasons
+//!   (the frozen operators are symmetric and positive semi-definite in the relative velocity).
+//!   `lub_substeps_restitution_change`: `max |e − e_default|` ≤ 1e-3 (measured 2.0e-4) and
+//!   `lub_substeps_closest_change`: `max |closest − closest_default|` ≤ 3e-3 (measured 1.0e-3;
+//!   3e-3 is the spread of the default scheme's own closest approach over 4 … 32 sub-steps):
+//!   the elastic load is held over a contact sub-step of 1/2 instead of 1/8 and the lubrication's
+//!   geometry frozen over it, so the outcome moves, but by less than the default's own
+//!   sub-step sensitivity. `lub_substeps_saturated_amplification`: the saturated contacts above
+//!   with `n_sub × m_lub` = 1 × 8, 2 × 4, 2 × 8, 4 × 4: the per-step amplification is
+//!   `(1 − c h/m_red)^{n_sub m_lub}`, `h = 1/(n_sub m_lub)`, to 1e-9 (measured 1.7e-10): the
+//!   operator is the law's exact linearisation, so the damping's stability is that of the
+//!   explicit law at the lubrication sub-step.
 //!
 //! **Tables.** Restitution `e = −u_n(end)/u_n(0)` (`u_n` the approach velocity along the
 //! contact normal: the line of centres for spheres, at first touch and at the end; the
@@ -114,6 +131,16 @@ const CASE: &str = "contacts_dry";
 const GAMMA: f64 = 1.25;
 /// Initial surface gap: just outside the lubrication range `δ_d = 1`.
 const GAP0: f64 = 1.2;
+/// The lubrication sub-step scheme checked against the default: 2 contact sub-steps of 4
+/// lubrication sub-steps each (8 damping steps per fluid step, as the default's 8 sub-steps,
+/// with a quarter of the marker-pair evaluations).
+const LUB_SCHEME: (usize, usize) = (2, 4);
+/// Tolerance of the change of a lubricated collision's restitution under [`LUB_SCHEME`]
+/// (module doc; measured 2.0e-4 in the quick tier).
+const LUB_RESTITUTION_TOL: f64 = 1e-3;
+/// Tolerance of the change of its closest approach: the spread of the default scheme's own
+/// closest approach over 4 … 32 sub-steps (3e-3, module doc; measured 1.0e-3).
+const LUB_CLOSEST_TOL: f64 = 3e-3;
 /// The impeller tip speed of the paper (`π D N = π · 132/4000`), the fastest impact expected.
 pub const TIP_SPEED: f64 = 0.104;
 
@@ -349,6 +376,13 @@ fn known_deviation(setup: Setup, d: f64, speed: f64) -> bool {
 /// `limiter`, of `limiter_saturated_stable_monotone`): returns `(c, m_red, g, g_pred)`, `g_pred`
 /// the explicit law's amplification.
 fn saturated(setup: Setup, d: f64, n_sub: usize, limiter: bool) -> (f64, f64, f64, f64) {
+    saturated_with(setup, d, n_sub, 1, limiter)
+}
+
+/// [`saturated`] with `m_lub` lubrication sub-steps per contact sub-step (module doc of
+/// `slurry::contact`, "Lubrication sub-steps"): `g_pred = (1 − c h/m_red)^{n_sub m_lub}` with
+/// `h = 1/(n_sub m_lub)`, the explicit law's amplification at that step.
+fn saturated_with(setup: Setup, d: f64, n_sub: usize, m_lub: usize, limiter: bool) -> (f64, f64, f64, f64) {
     let u0 = 1e-10;
     let Scene { mut bodies, markers, walls, normal } = scene(setup, d, u0, 0.1);
     if bodies.len() == 2 {
@@ -360,6 +394,8 @@ fn saturated(setup: Setup, d: f64, n_sub: usize, limiter: bool) -> (f64, f64, f6
     let params = ContactParams { elastic: false, lubrication_limiter: limiter, ..Default::default() };
     let mut ct = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
     let c = -ct.compute(&bodies, &markers)[0].force.dot(&normal) / u0;
+    let params = ContactParams { lubrication_substeps: m_lub, ..params };
+    let mut ct = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
     let m_red = if bodies.len() == 2 {
         bodies[0].mass() * bodies[1].mass() / (bodies[0].mass() + bodies[1].mass())
     } else {
@@ -371,7 +407,8 @@ fn saturated(setup: Setup, d: f64, n_sub: usize, limiter: bool) -> (f64, f64, f6
     let before = rel(&bodies);
     ct.advance(&mut bodies, &markers, n_sub);
     let g = rel(&bodies) / before;
-    let g_pred = (1.0 - c / (m_red * n_sub as f64)).powi(n_sub as i32);
+    let steps = n_sub * m_lub;
+    let g_pred = (1.0 - c / (m_red * steps as f64)).powi(steps as i32);
     (c, m_red, g, g_pred)
 }
 
@@ -598,8 +635,131 @@ pub fn run(tier: Tier) -> CaseOutput {
          it sees: g >= 0, the relative velocity never reverses",
     ));
 
+    lubrication_substeps(&mut out, &jobs, &res);
+
     out.tables.push(cost(tier));
     out
+}
+
+/// The lubrication sub-steps (module doc of `slurry::contact`, "Lubrication sub-steps";
+/// [`LUB_SCHEME`]): the checks of the explicit scheme on the same collisions, the saturated
+/// amplification, and the change of every lubricated collision's outcome against the default.
+fn lubrication_substeps(out: &mut CaseOutput, jobs: &[(f64, Setup, f64, bool)], res: &[Outcome]) {
+    let (n_sub, m_lub) = LUB_SCHEME;
+    let params = ContactParams { lubrication_substeps: m_lub, ..Default::default() };
+    let lubricated: Vec<(usize, (f64, Setup, f64, bool))> =
+        jobs.iter().copied().enumerate().filter(|(_, j)| j.3).collect();
+    let alt: Vec<Outcome> =
+        lubricated.par_iter().map(|&(_, (d, s, v, _))| collide(s, d, v, params, n_sub)).collect();
+    let mut t = Table::new(
+        format!(
+            "lubricated collisions with {n_sub} contact sub-steps x {m_lub} lubrication sub-steps against the \
+             default ({DEFAULT_SUBSTEPS} x 1): restitution and closest approach"
+        ),
+        &[
+            ("d", true),
+            ("setup", true),
+            ("speed", true),
+            ("restitution", true),
+            ("restitution_default", true),
+            ("closest", true),
+            ("closest_default", true),
+            ("ke_change", true),
+        ],
+    );
+    let (mut mom, mut excess, mut min_loss, mut closest_ok) =
+        (0.0f64, f64::NEG_INFINITY, f64::INFINITY, f64::INFINITY);
+    let (mut de, mut dc) = (0.0f64, 0.0f64);
+    for (&(k, (d, s, v, _)), o) in lubricated.iter().zip(&alt) {
+        let r = &res[k];
+        t.push(vec![d, s.index(), v, o.restitution, r.restitution, o.closest, r.closest, o.ke_change]);
+        mom = mom.max(o.momentum_err);
+        excess = excess.max(o.energy_excess);
+        min_loss = min_loss.min(-o.ke_change);
+        if !known_deviation(s, d, v) {
+            closest_ok = closest_ok.min(o.closest);
+            de = de.max((o.restitution - r.restitution).abs());
+            dc = dc.max((o.closest - r.closest).abs());
+        }
+    }
+    out.tables.push(t);
+    out.checks.push(Check::at_most(
+        CASE,
+        "lub_substeps_momentum_conservation",
+        mom,
+        1e-13,
+        "with lubrication sub-steps each pair's operator gives +F and -F to its two bodies (the two \
+         force rows agree to round-off): sum m v changes by round-off only",
+    ));
+    out.checks.push(Check::at_least(
+        CASE,
+        "lub_substeps_dissipation",
+        min_loss,
+        0.0,
+        0.0,
+        "the frozen operators are symmetric positive semi-definite in the pair's relative \
+         velocity: the lubrication never does positive work, KE(0) - KE(end) >= 0",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "lub_substeps_energy_never_exceeds_initial",
+        excess.max(0.0),
+        1e-12,
+        "as for the explicit scheme: E = KE + elastic energy after every contact sub-step stays at or \
+         below E(0)",
+    ));
+    out.checks.push(Check::at_least(
+        CASE,
+        "lub_substeps_closest_approach",
+        closest_ok,
+        0.2,
+        0.2,
+        "no marker closer than delta_sat (the runs of the known deviation excluded, as above)",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "lub_substeps_restitution_change",
+        de,
+        LUB_RESTITUTION_TOL,
+        "largest |e - e_default| over the lubricated collisions (known deviations excluded): the \
+         elastic load is held over a contact sub-step of 1/2 instead of 1/8, a coarser position Verlet \
+         (error O((omega h)^2), omega h <= 0.85 at d = 6), and the lubrication geometry is frozen over it",
+    ));
+    out.checks.push(Check::at_most(
+        CASE,
+        "lub_substeps_closest_change",
+        dc,
+        LUB_CLOSEST_TOL,
+        "largest |closest - closest_default| (lattice units) over the same collisions: the same \
+         coarser elastic sub-step",
+    ));
+
+    // Saturated contacts: the operators reproduce the explicit law's amplification per
+    // lubrication sub-step exactly, at any split of the same number of damping steps.
+    let mut sat = Table::new(
+        "saturated lubrication (elastic off, gap 0.1) with lubrication sub-steps: n_sub x m_lub damping steps",
+        &[("d", true), ("setup", true), ("n_sub", true), ("m_lub", true), ("b", true), ("g", true), ("g_pred", true)],
+    );
+    let mut worst = 0.0f64;
+    for d in [6.0, 12.0] {
+        for s in [Setup::CylinderEnd, Setup::WallFlat] {
+            for (n, m) in [(1, 8), (2, 4), (2, 8), (4, 4)] {
+                let (c, mr, g, gp) = saturated_with(s, d, n, m, false);
+                sat.push(vec![d, s.index(), n as f64, m as f64, c / (mr * (n * m) as f64), g, gp]);
+                worst = worst.max((g / gp - 1.0).abs());
+            }
+        }
+    }
+    out.tables.push(sat);
+    out.checks.push(Check::at_most(
+        CASE,
+        "lub_substeps_saturated_amplification",
+        worst,
+        1e-9,
+        "saturated normal motion, lubrication only: the frozen operator is the law's exact \
+         linearisation, so n_sub x m_lub explicit damping steps multiply the relative velocity by \
+         (1 - c h/m_red)^(n_sub m_lub), h = 1/(n_sub m_lub), to round-off (as the explicit scheme's check)",
+    ));
 }
 
 /// `(µs per call, stats)` of `Contacts::compute` on `bodies`, minimum over `reps` calls after
