@@ -56,8 +56,16 @@ pub struct ContactParams {
     /// this many parts, each with the lubrication recomputed from the bodies' current
     /// velocities through that map and the elastic load held: the stiff damping gets short
     /// steps without a marker-pair evaluation for each. 1: Table 1's law at every evaluation,
-    /// bitwise the scheme without this option. Not with the lubrication limiter.
+    /// bitwise the scheme without this option. Not with the lubrication limiter. Written into
+    /// a case's TOML (and so into its fingerprint) only when not 1, so that the fingerprints
+    /// of checkpoints and cached beds made before it existed stay valid.
+    #[serde(skip_serializing_if = "is_one")]
     pub lubrication_substeps: usize,
+}
+
+/// Whether `n` is 1 (serde: `lubrication_substeps` at its default is not written).
+fn is_one(n: &usize) -> bool {
+    *n == 1
 }
 
 impl Default for ContactParams {
@@ -251,6 +259,18 @@ mod tests {
         let e = both.validate().unwrap_err();
         assert!(e.to_string().contains("lubrication_limiter"), "{e}");
         ContactParams { lubrication_substeps: 4, ..Default::default() }.validate().unwrap();
+    }
+
+    /// The default `lubrication_substeps` is not written (the fingerprints of earlier cases,
+    /// checkpoints and cached beds stay valid); another value is, and reads back.
+    #[test]
+    fn lubrication_substeps_is_written_only_when_not_the_default() {
+        let text = toml::to_string(&ContactParams::default()).unwrap();
+        assert!(!text.contains("lubrication_substeps"), "{text}");
+        let p = ContactParams { lubrication_substeps: 4, ..Default::default() };
+        let text = toml::to_string(&p).unwrap();
+        assert!(text.contains("lubrication_substeps = 4"), "{text}");
+        assert_eq!(toml::from_str::<ContactParams>(&text).unwrap(), p);
     }
 
     #[test]
