@@ -122,7 +122,7 @@ pub const CONTACT_SUBSTEPS_RANGE: (usize, usize) = (1, 1024);
 /// # Errors
 /// The message names the option, the value and the allowed range.
 pub fn check_lubrication_substeps(m: usize, limiter: bool) -> Result<(), String> {
-    let hi = crate::contact::LUBRICATION_SUBSTEPS_MAX;
+    let hi = CONTACT_SUBSTEPS_RANGE.1; // the same bound as contact::LUBRICATION_SUBSTEPS_MAX
     if !(1..=hi).contains(&m) {
         return Err(format!("--lubrication-substeps {m} is out of range: it must be in [1, {hi}]"));
     }
