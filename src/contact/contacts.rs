@@ -48,12 +48,10 @@ pub struct Contacts {
     wall_slots: Vec<Slot>,
     /// With lubrication sub-steps (module [`super`], "Lubrication sub-steps"): per listed pair
     /// and per body against the walls, the lubrication of the last evaluation as a linear
-    /// map of the velocities, whether it has any (an interacting marker pair), the bodies'
-    /// velocities it is applied to, and the loads it gives. Empty otherwise.
+    /// map of the velocities (valid where the slot has a contact), the bodies' velocities it
+    /// is applied to, and the loads it gives. Empty otherwise.
     ops: Vec<PairOperator>,
     wall_ops: Vec<Mat6>,
-    active: Vec<bool>,
-    wall_active: Vec<bool>,
     velocities: Vec<Vec6>,
     pub(crate) lubrication: Vec<ContactLoad>,
     pub(crate) loads: Vec<ContactLoad>,
@@ -129,8 +127,6 @@ impl Contacts {
             wall_slots: Vec::with_capacity(n),
             ops: Vec::new(),
             wall_ops: Vec::new(),
-            active: Vec::new(),
-            wall_active: Vec::new(),
             velocities: Vec::new(),
             lubrication: Vec::new(),
             loads: vec![ContactLoad::ZERO; n],
@@ -197,8 +193,6 @@ impl Contacts {
             + self.wall_slots.capacity()
             + self.ops.capacity()
             + self.wall_ops.capacity()
-            + self.active.capacity()
-            + self.wall_active.capacity()
             + self.velocities.capacity()
             + self.lubrication.capacity()
             + self.loads.capacity()
@@ -321,29 +315,23 @@ impl Contacts {
         self.slots.resize(pairs, Slot::EMPTY);
         // Only the entries of pairs in contact are written and read (no clearing).
         self.ops.resize(if operators { pairs } else { 0 }, PairOperator::ZERO);
-        // Chunks of pairs, one scratch lock each.
-        let chunk = |c: usize, out: &mut [Slot], mut ops: Option<&mut [PairOperator]>| {
+        // Chunks of pairs (and their operators), one scratch lock each.
+        let ops = if operators { Some(&mut self.ops[..]) } else { None };
+        par_chunks(&mut self.slots, ops, |c, out, mut ops| {
             let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
             let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
             for (o, slot) in out.iter_mut().enumerate() {
                 let op = ops.as_deref_mut().map(|ops| &mut ops[o]);
                 *slot = list.pair_slot(c * EVAL_CHUNK + o, poses, markers, params, &mut s, op);
             }
-        };
-        if operators {
-            (self.slots.par_chunks_mut(EVAL_CHUNK), self.ops.par_chunks_mut(EVAL_CHUNK))
-                .into_par_iter()
-                .enumerate()
-                .for_each(|(c, (out, ops))| chunk(c, out, Some(ops)));
-        } else {
-            self.slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| chunk(c, out, None));
-        }
+        });
         self.wall_slots.clear();
         self.wall_slots.resize(bodies.len(), Slot::EMPTY);
         self.wall_ops.resize(if operators { bodies.len() } else { 0 }, Mat6::zeros());
         if !self.wall_list.is_empty() {
             let walls = &self.wall_list;
-            let chunk = |c: usize, out: &mut [Slot], mut ops: Option<&mut [Mat6]>| {
+            let ops = if operators { Some(&mut self.wall_ops[..]) } else { None };
+            par_chunks(&mut self.wall_slots, ops, |c, out, mut ops| {
                 let t = rayon::current_thread_index().unwrap_or(0) % scratch.len();
                 let mut s = scratch[t].lock().unwrap_or_else(|e| e.into_inner());
                 for (o, slot) in out.iter_mut().enumerate() {
@@ -351,24 +339,7 @@ impl Contacts {
                     let op = ops.as_deref_mut().map(|ops| &mut ops[o]);
                     *slot = list.wall_slot(b, &poses[b], markers, params, walls, &mut s, op);
                 }
-            };
-            if operators {
-                (self.wall_slots.par_chunks_mut(EVAL_CHUNK), self.wall_ops.par_chunks_mut(EVAL_CHUNK))
-                    .into_par_iter()
-                    .enumerate()
-                    .for_each(|(c, (out, ops))| chunk(c, out, Some(ops)));
-            } else {
-                self.wall_slots
-                    .par_chunks_mut(EVAL_CHUNK)
-                    .enumerate()
-                    .for_each(|(c, out)| chunk(c, out, None));
-            }
-        }
-        self.active.clear();
-        self.wall_active.clear();
-        if operators {
-            self.active.extend(self.slots.iter().map(|s| s.count > 0));
-            self.wall_active.extend(self.wall_slots.iter().map(|s| s.count > 0));
+            });
         }
         self.stiffness.resize(n, [0.0; 2]);
         inverse_masses(bodies, &mut self.inverse_mass);
@@ -398,9 +369,9 @@ impl Contacts {
         lubrication_loads(
             self.list.pairs(),
             &self.ops,
-            &self.active,
+            &self.slots,
             &self.wall_ops,
-            &self.wall_active,
+            &self.wall_slots,
             &self.velocities,
             &mut self.lubrication,
         );
@@ -427,5 +398,21 @@ impl Contacts {
     /// count are refreshes of the bodies that moved).
     pub fn full_rebuilds(&self) -> u64 {
         self.list.full_rebuilds()
+    }
+}
+
+/// `f(c, chunk, ops_chunk)` for every chunk `c` of [`EVAL_CHUNK`] slots, in parallel, with the
+/// matching chunk of `ops` when given (one entry per slot).
+fn par_chunks<O: Send>(
+    slots: &mut [Slot],
+    ops: Option<&mut [O]>,
+    f: impl Fn(usize, &mut [Slot], Option<&mut [O]>) + Sync + Send,
+) {
+    match ops {
+        Some(ops) => (slots.par_chunks_mut(EVAL_CHUNK), ops.par_chunks_mut(EVAL_CHUNK))
+            .into_par_iter()
+            .enumerate()
+            .for_each(|(c, (out, ops))| f(c, out, Some(ops))),
+        None => slots.par_chunks_mut(EVAL_CHUNK).enumerate().for_each(|(c, out)| f(c, out, None)),
     }
 }

@@ -26,7 +26,7 @@ use nalgebra::{Matrix3, Matrix6, Vector6};
 use crate::rigid::{Motion, RigidBody, Vec3};
 
 use super::force::Hit;
-use super::slots::ContactLoad;
+use super::slots::{ContactLoad, Slot};
 
 /// A 6 × 6 block acting on a generalised velocity `(v, ω)`.
 pub(crate) type Mat6 = Matrix6<f64>;
@@ -155,14 +155,14 @@ pub(crate) fn velocity(b: &RigidBody, dt: f64) -> Vec6 {
 
 /// The lubrication loads of every body from the operators of the last evaluation at the
 /// velocities `v` (one per body): the pairs in list order (`pairs[k]`, `ops[k]`, only those
-/// with `active[k]`), then the walls in body order (`walls[b]`, only those with
-/// `wall_active[b]`); serial, so bitwise the same for any number of threads. Overwrites `out`.
+/// whose slot has a contact: the others' operators are stale), then the walls in body order
+/// (likewise); serial, so bitwise the same for any number of threads. Overwrites `out`.
 pub(crate) fn lubrication_loads(
     pairs: &[(u32, u32)],
     ops: &[PairOperator],
-    active: &[bool],
+    slots: &[Slot],
     walls: &[Mat6],
-    wall_active: &[bool],
+    wall_slots: &[Slot],
     v: &[Vec6],
     out: &mut [ContactLoad],
 ) {
@@ -171,13 +171,13 @@ pub(crate) fn lubrication_loads(
         load.force += Vec3::new(l[0], l[1], l[2]);
         load.torque += Vec3::new(l[3], l[4], l[5]);
     };
-    for ((&(a, b), op), _) in pairs.iter().zip(ops).zip(active).filter(|(_, &on)| on) {
+    for ((&(a, b), op), _) in pairs.iter().zip(ops).zip(slots).filter(|(_, s)| s.count > 0) {
         let (a, b) = (a as usize, b as usize);
         let (la, lb) = op.loads(&v[a], &v[b]);
         add(&mut out[a], &la);
         add(&mut out[b], &lb);
     }
-    for ((b, w), _) in walls.iter().enumerate().zip(wall_active).filter(|(_, &on)| on) {
+    for ((b, w), _) in walls.iter().enumerate().zip(wall_slots).filter(|(_, s)| s.count > 0) {
         add(&mut out[b], &(-(w * v[b])));
     }
 }

@@ -138,20 +138,10 @@ impl Contacts {
                     b.step(h);
                     continue;
                 }
-                let e = self.external[i];
-                let ext = match (b.load_scheme, self.external_prev[i]) {
-                    (LoadScheme::AdamsBashforth2, Some(p)) => ContactLoad {
-                        force: e.force + (e.force - p.force) * s,
-                        torque: e.torque + (e.torque - p.torque) * s,
-                    },
-                    _ => e,
-                };
+                let ext = self.external_at(i, b, s);
                 b.add_force(ext.force + c.force);
                 b.add_torque(ext.torque + c.torque);
-                let scheme = b.load_scheme;
-                b.load_scheme = LoadScheme::Constant;
-                b.step(h);
-                b.load_scheme = scheme;
+                step_constant(b, h);
             }
             observer(k, bodies, &self.loads);
         }
@@ -194,20 +184,10 @@ impl Contacts {
                     b.step(hm);
                     continue;
                 }
-                let x = self.external[i];
-                let ext = match (b.load_scheme, self.external_prev[i]) {
-                    (LoadScheme::AdamsBashforth2, Some(p)) => ContactLoad {
-                        force: x.force + (x.force - p.force) * s,
-                        torque: x.torque + (x.torque - p.torque) * s,
-                    },
-                    _ => x,
-                };
+                let ext = self.external_at(i, b, s);
                 b.add_force(ext.force + e.force + l.force);
                 b.add_torque(ext.torque + e.torque + l.torque);
-                let scheme = b.load_scheme;
-                b.load_scheme = LoadScheme::Constant;
-                b.step(hm);
-                b.load_scheme = scheme;
+                step_constant(b, hm);
             }
         }
         for i in 0..n {
@@ -220,6 +200,21 @@ impl Contacts {
         self.lubrication_sum = sum;
     }
 
+    /// Body `i`'s external load at time `s` into the fluid step ([`Contacts::advance`]): its
+    /// linear extrapolation from the last two fluid steps' under
+    /// [`LoadScheme::AdamsBashforth2`] when the previous one is known, else the load held.
+    #[inline]
+    fn external_at(&self, i: usize, b: &RigidBody, s: f64) -> ContactLoad {
+        let e = self.external[i];
+        match (b.load_scheme, self.external_prev[i]) {
+            (LoadScheme::AdamsBashforth2, Some(p)) => ContactLoad {
+                force: e.force + (e.force - p.force) * s,
+                torque: e.torque + (e.torque - p.torque) * s,
+            },
+            _ => e,
+        }
+    }
+
     /// The contact loads averaged over the sub-steps of the last [`Contacts::advance`].
     pub fn averaged_loads(&self) -> &[ContactLoad] {
         &self.average
@@ -230,4 +225,14 @@ impl Contacts {
     pub fn reset_history(&mut self) {
         self.external_prev.iter_mut().for_each(|p| *p = None);
     }
+}
+
+/// Steps a free body by `dt` under the loads in its accumulators held constant (its load scheme
+/// restored afterwards): the sub-steps' update ([`Contacts::advance`] says why not AB2).
+#[inline]
+fn step_constant(b: &mut RigidBody, dt: f64) {
+    let scheme = b.load_scheme;
+    b.load_scheme = LoadScheme::Constant;
+    b.step(dt);
+    b.load_scheme = scheme;
 }
