@@ -106,6 +106,10 @@ pub struct Stencils {
 /// Fewest slabs for which spreading runs in parallel (each phase then has ≥ 2 slabs).
 pub const MIN_PARALLEL_SLABS: usize = 4;
 
+/// Markers per task of [`Stencils::build`]: large enough that rayon's per-task cost
+/// vanishes, small enough for two threads to share 10⁴ markers evenly.
+const BUILD_CHUNK: usize = 512;
+
 impl Stencils {
     /// Empty stencils for the given kernel (no markers, a 0-node grid).
     pub fn new(kernel: DeltaKernel) -> Self {
@@ -204,51 +208,51 @@ impl Stencils {
 
         let kernel = self.kernel;
         let dims = [grid.nx, grid.ny, grid.nz];
-        let result = positions
-            .par_iter()
-            .zip(self.node.par_iter_mut())
-            .zip(self.weight.par_iter_mut())
-            .zip(self.len.par_iter_mut())
-            .zip(self.slab.par_iter_mut())
-            .enumerate()
-            .try_for_each(|(i, ((((x, nd), wt), ln), sl))| {
-                if !x.iter().all(|c| c.is_finite()) {
-                    return Err(StencilError::NonFinite { marker: i, position: *x });
-                }
-                for a in 0..3 {
-                    let n = dims[a];
-                    if !periodic[a] && !(-0.5..=n as f64 - 0.5).contains(&x[a]) {
-                        return Err(StencilError::OutsideBox {
-                            marker: i,
-                            position: *x,
-                            axis: a,
-                            max: n as f64 - 0.5,
-                        });
-                    }
-                    ln[a] = axis_stencil(kernel, x[a], n, periodic[a], &mut nd[a], &mut wt[a]) as u8;
-                }
-                *sl = (nd[2][0] as usize / t).min(s - 1) as u32;
-                Ok(())
-            });
-        if let Err(e) = result {
-            // The error of the lowest-indexed failing marker is not guaranteed in parallel;
-            // find it serially so the message is deterministic.
-            let first = (0..m)
-                .find_map(|i| {
-                    let x = positions[i];
-                    if !x.iter().all(|c| c.is_finite()) {
-                        return Some(StencilError::NonFinite { marker: i, position: x });
-                    }
-                    (0..3).find_map(|a| {
-                        let n = dims[a] as f64;
-                        (!periodic[a] && !(-0.5..=n - 0.5).contains(&x[a])).then_some(
-                            StencilError::OutsideBox { marker: i, position: x, axis: a, max: n - 0.5 },
-                        )
-                    })
+        // The marker's error, if its position is not finite or off the box on a walled axis.
+        let check = |i: usize, x: [f64; 3]| -> Option<StencilError> {
+            if !x.iter().all(|c| c.is_finite()) {
+                return Some(StencilError::NonFinite { marker: i, position: x });
+            }
+            (0..3).find_map(|a| {
+                let n = dims[a] as f64;
+                (!periodic[a] && !(-0.5..=n - 0.5).contains(&x[a])).then_some(StencilError::OutsideBox {
+                    marker: i,
+                    position: x,
+                    axis: a,
+                    max: n - 0.5,
                 })
-                .unwrap_or(e);
+            })
+        };
+        // Parallel over chunks of markers, each chunk serial; the lowest failing marker of the
+        // whole set (chunks stop at their first) is the error, whatever the thread count.
+        let first_bad = self
+            .node
+            .par_chunks_mut(BUILD_CHUNK)
+            .zip(self.weight.par_chunks_mut(BUILD_CHUNK))
+            .zip(self.len.par_chunks_mut(BUILD_CHUNK))
+            .zip(self.slab.par_chunks_mut(BUILD_CHUNK))
+            .enumerate()
+            .filter_map(|(c, (((nd, wt), ln), sl))| {
+                let base = c * BUILD_CHUNK;
+                for (k, x) in positions[base..base + nd.len()].iter().enumerate() {
+                    if let Some(e) = check(base + k, *x) {
+                        return Some(e);
+                    }
+                    for a in 0..3 {
+                        ln[k][a] =
+                            axis_stencil(kernel, x[a], dims[a], periodic[a], &mut nd[k][a], &mut wt[k][a])
+                                as u8;
+                    }
+                    sl[k] = (nd[k][2][0] as usize / t).min(s - 1) as u32;
+                }
+                None
+            })
+            .min_by_key(|e| match e {
+                StencilError::NonFinite { marker, .. } | StencilError::OutsideBox { marker, .. } => *marker,
+            });
+        if let Some(e) = first_bad {
             self.clear();
-            return Err(first);
+            return Err(e);
         }
 
         // Counting sort of the markers by slab, stable (input order within a slab). O(M)
@@ -334,7 +338,9 @@ impl Stencils {
 }
 
 /// The 1-D stencil of a coordinate `x` on an axis of `n` nodes: writes the node coordinates and
-/// weights of the kept points and returns their number.
+/// weights of the kept points and returns their number. Dispatches once to a copy of
+/// [`axis_stencil_w`] per kernel, whose width is a constant: its loops unroll and each weight's
+/// branch of `φ` gets its own predictor, with the same arithmetic (the same bits) as `φ`.
 #[inline]
 fn axis_stencil(
     kernel: DeltaKernel,
@@ -344,26 +350,55 @@ fn axis_stencil(
     nodes: &mut [u32; MAX_WIDTH],
     weights: &mut [f64; MAX_WIDTH],
 ) -> usize {
-    let w = kernel.width();
+    // In each arm the kernel is a constant: `φ`'s own dispatch folds away once inlined.
+    match kernel {
+        DeltaKernel::Linear => axis_stencil_w::<2>(DeltaKernel::Linear, x, n, periodic, nodes, weights),
+        DeltaKernel::Roma3 => axis_stencil_w::<3>(DeltaKernel::Roma3, x, n, periodic, nodes, weights),
+        DeltaKernel::Peskin4 => axis_stencil_w::<4>(DeltaKernel::Peskin4, x, n, periodic, nodes, weights),
+    }
+}
+
+/// [`axis_stencil`] for `kernel`, of `W = kernel.width()` points per axis.
+#[inline(always)]
+fn axis_stencil_w<const W: usize>(
+    kernel: DeltaKernel,
+    x: f64,
+    n: usize,
+    periodic: bool,
+    nodes: &mut [u32; MAX_WIDTH],
+    weights: &mut [f64; MAX_WIDTH],
+) -> usize {
+    debug_assert_eq!(kernel.width(), W);
+    let phi = |r: f64| kernel.phi(r);
     let lo = crate::util::floor_i64(x - kernel.support()) + 1;
     if periodic {
-        // One integer division per axis, then wrap by subtraction (`n` may be < `w`).
-        let mut node = lo.rem_euclid(n as i64) as usize;
-        for k in 0..w {
+        // The first node wrapped into [0, n): one comparison for the stencils near the box
+        // (the integer division only for coordinates further out), then wrap by subtraction
+        // (`n` may be < `W`).
+        let ni = n as i64;
+        let first = if (0..ni).contains(&lo) {
+            lo
+        } else if (-ni..0).contains(&lo) {
+            lo + ni
+        } else {
+            lo.rem_euclid(ni)
+        };
+        let mut node = first as usize;
+        for k in 0..W {
             nodes[k] = node as u32;
-            weights[k] = kernel.phi(x - (lo + k as i64) as f64);
+            weights[k] = phi(x - (lo + k as i64) as f64);
             node += 1;
             while node >= n {
                 node -= n;
             }
         }
-        return w;
+        return W;
     }
     let mut kept = 0;
     let (mut sum, mut dropped) = (0.0, 0.0);
-    for k in 0..w {
+    for k in 0..W {
         let j = lo + k as i64;
-        let p = kernel.phi(x - j as f64);
+        let p = phi(x - j as f64);
         if (0..n as i64).contains(&j) {
             nodes[kept] = j as u32;
             weights[kept] = p;
