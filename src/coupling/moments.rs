@@ -6,7 +6,7 @@
 //! nodes, each from 19 populations in scattered short runs. Instead, one pass over the grid
 //! per fluid state stores per node
 //!
-//! - the momentum `j` ([`Fluid::for_each_in_run`]'s), from which both interior sums of that
+//! - the momentum `j` ([`Fluid::run_moments`], bitwise [`Fluid::for_each_in_run`]'s), from which both interior sums of that
 //!   state (phase 7 of one step, phase 3 of the next) gather;
 //! - in the coupling's velocity buffer, the velocity that phase 5's first iteration would
 //!   form at the node after phase 4 has cleared the force field, `u = (j + F₀/2)/ρ` with `F₀`
@@ -23,6 +23,9 @@ use rayon::prelude::*;
 
 use crate::lattice::{Grid, Run};
 use crate::lbm::{Fluid, Real};
+
+/// Nodes per piece of a row in [`Moments::fill`].
+const CHUNK: usize = 128;
 
 /// Per node the momentum `j` of one fluid state (module docs).
 #[derive(Clone, Debug, Default)]
@@ -53,17 +56,23 @@ impl Moments {
         let f0 = fluid.zero_field_force();
         self.j.par_chunks_mut(plane).zip(velocity.par_chunks_mut(plane)).enumerate().for_each(
             |(z, (js, vel))| {
+                // Rows in pieces of `CHUNK` nodes (the densities on the stack: no allocation).
+                let mut rho = [0.0f64; CHUNK];
                 for y in 0..grid.ny {
-                    let run = Run { x0: 0, len: grid.nx as u32, y: y as u32, z: z as u32 };
-                    let row = y * grid.nx;
-                    fluid.for_each_in_run(run, |x, rho, j, _f| {
-                        js[row + x] = j;
-                        vel[row + x] = [
-                            (j[0] + 0.5 * f0[0]) / rho,
-                            (j[1] + 0.5 * f0[1]) / rho,
-                            (j[2] + 0.5 * f0[2]) / rho,
-                        ];
-                    });
+                    for x0 in (0..grid.nx).step_by(CHUNK) {
+                        let len = CHUNK.min(grid.nx - x0);
+                        let run = Run { x0: x0 as u32, len: len as u32, y: y as u32, z: z as u32 };
+                        let at = y * grid.nx + x0;
+                        let (jr, vr) = (&mut js[at..at + len], &mut vel[at..at + len]);
+                        fluid.run_moments(run, &mut rho, jr);
+                        for ((v, j), &rho) in vr.iter_mut().zip(jr.iter()).zip(&rho[..len]) {
+                            *v = [
+                                (j[0] + 0.5 * f0[0]) / rho,
+                                (j[1] + 0.5 * f0[1]) / rho,
+                                (j[2] + 0.5 * f0[2]) / rho,
+                            ];
+                        }
+                    }
                 }
             },
         );
