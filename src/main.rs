@@ -246,7 +246,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     let cache = PathBuf::from("target").join("reproduce").join("cache");
     let mut rows: Vec<CoupledBench> = Vec::new();
     println!(
-        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>7} {:>7}",
+        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>7} {:>7}",
         "case",
         "scale",
         "parts",
@@ -255,6 +255,8 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
         "geometry",
         "interior",
         "forcing",
+        "interp",
+        "spread",
         "bodies",
         "contacts",
         "output",
@@ -272,7 +274,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
                 bench_case(name, s, &cache, a.warmup, a.steps, contact, a.from.as_deref(), false)
             })?;
             println!(
-                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
+                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
                 r.case,
                 r.scale,
                 r.particles,
@@ -281,6 +283,8 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
                 r.geometry_ms,
                 r.interior_ms,
                 r.forcing_ms,
+                r.interpolate_ms,
+                r.spread_ms,
                 r.bodies_ms,
                 r.contact_ms,
                 r.output_ms,
@@ -301,7 +305,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
         }
     }
     println!(
-        "(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid; damp, spring: the \
+        "(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid; interp, spread: the parts of forcing; damp, spring: the \
          stiffest body's contact rates, per fluid step: explicit sub-steps need n_sub > damp/2 and n_sub > spring/2)"
     );
     Ok(())

@@ -2,6 +2,8 @@
 //! and the direct-forcing iterations (band velocity, interpolation, `2ρ(U − u)A`, spreading
 //! straight into the fluid's force field).
 
+use std::time::Instant;
+
 use rayon::prelude::*;
 
 use super::Coupled;
@@ -59,15 +61,19 @@ impl<T: Real> Coupled<T> {
     /// Phase 5: `K` direct-forcing iterations, each: the fluid velocity `u = (j + F/2)/ρ` at
     /// the band nodes (the current force field included); `u_m = I u`; the increment
     /// `ΔF_m = 2 ρ_m (U_m − u_m) A_m` (`ρ_m = 1`), accumulated per marker; spread (adding) into
-    /// the fluid's force field.
-    pub(super) fn force(&mut self) {
+    /// the fluid's force field. Returns the seconds spent in the interpolations and in the
+    /// spreadings (for [`super::StepTimings`]).
+    pub(super) fn force(&mut self) -> [f64; 2] {
+        let mut seconds = [0.0; 2];
         for k in 0..self.iterations {
             // A dense step's first iteration finds the velocity stored with the moments of the
             // current fluid state (module `moments`): the force field is zero there now.
             if !(k == 0 && self.band.whole_grid && self.moments.current(&self.fluid)) {
                 self.band_velocity();
             }
+            let t = Instant::now();
             interpolate(&self.velocity, &self.stencils, &mut self.fluid_u);
+            seconds[0] += t.elapsed().as_secs_f64();
             self.increment
                 .par_iter_mut()
                 .zip(self.marker_force.par_iter_mut())
@@ -80,8 +86,11 @@ impl<T: Real> Coupled<T> {
                 });
             let layout = self.fluid.padded_layout();
             let sink = FieldSink { writer: self.fluid.force_field_writer(), layout };
+            let t = Instant::now();
             spread_into(&self.increment, &self.stencils, &sink);
+            seconds[1] += t.elapsed().as_secs_f64();
         }
+        seconds
     }
 
     /// The fluid velocity at every band node into `self.velocity` (parallel over planes). When

@@ -358,6 +358,11 @@ pub struct StepTimings {
     pub interior: f64,
     /// 4–5: clearing, band velocity, interpolation, forcing and spreading.
     pub forcing: f64,
+    /// The interpolation `u_m = I u` of phase 5 (a part of `forcing`, not added again by
+    /// [`StepTimings::total`]).
+    pub interpolation: f64,
+    /// The spreading `S ΔF` into the fluid's force field of phase 5 (a part of `forcing`).
+    pub spreading: f64,
     /// 6: the fluid step.
     pub fluid: f64,
     /// 7–8: loads and the external loads of the body update.
@@ -816,7 +821,9 @@ impl<T: Real> Coupled<T> {
         self.interior_sums(Moment::Before); // 3
         lap(&mut timings.interior);
         self.clear_forcing(); // 4
-        self.force(); // 5
+        let [interpolation, spreading] = self.force(); // 5
+        timings.interpolation += interpolation;
+        timings.spreading += spreading;
         lap(&mut timings.forcing);
         self.fluid.step(); // 6
         lap(&mut timings.fluid);

@@ -323,6 +323,24 @@ impl Stencils {
         }
     }
 
+    /// `f(index)` for the first node of each x-row of marker `m`'s stencil (indices in
+    /// `layout`), in the order of [`Stencils::for_each_node_in`]: where a marker's reads and
+    /// updates begin, for prefetching them.
+    #[inline(always)]
+    pub fn for_each_row_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize)) {
+        let nd = &self.node[m];
+        let ln = self.len[m];
+        if ln[0] == 0 {
+            return;
+        }
+        for c in 0..ln[2] as usize {
+            let z = nd[2][c] as usize;
+            for b in 0..ln[1] as usize {
+                f(layout.base + layout.sy * nd[1][b] as usize + layout.sz * z + nd[0][0] as usize);
+            }
+        }
+    }
+
     /// The markers of slab `s`, in input order.
     pub(super) fn slab_markers(&self, s: usize) -> &[u32] {
         &self.order[self.slab_start[s] as usize..self.slab_start[s + 1] as usize]

@@ -289,3 +289,34 @@ fn fn_field_equals_slice() {
     interpolate(&FnField { nodes: grid.nodes(), f: |n: usize| u[n] }, &st, &mut b);
     assert_eq!(bits(&a), bits(&b));
 }
+
+/// `for_each_row_in` (the interpolation's prefetch addresses) names the first node of each
+/// x-row of `for_each_node_in`, row by row, for every kernel, on periodic and walled axes
+/// (clipped stencils), in a padded layout.
+#[test]
+fn rows_start_where_the_stencil_rows_start() {
+    let mut rng = Rng(11);
+    let grid = Grid::new(9, 7, 16);
+    let layout = crate::lattice::NodeLayout { base: 5, sy: 11, sz: 11 * 9 };
+    for kernel in [DeltaKernel::Linear, DeltaKernel::Roma3, DeltaKernel::Peskin4] {
+        for periodic in [[true; 3], [false; 3]] {
+            let pos = markers(&mut rng, grid, periodic, 300);
+            let st = build(kernel, grid, periodic, &pos);
+            for m in 0..pos.len() {
+                let mut rows = Vec::new();
+                st.for_each_row_in(layout, m, |n| rows.push(n));
+                let mut firsts = Vec::new();
+                let mut last_row = None;
+                st.for_each_node_in(layout, m, |n, _| {
+                    // A new x-row starts wherever the (y, z) row base changes.
+                    let row = (n - layout.base) / layout.sy;
+                    if last_row != Some(row) {
+                        firsts.push(n);
+                        last_row = Some(row);
+                    }
+                });
+                assert_eq!(rows, firsts, "{kernel:?}, periodic {periodic:?}, marker {m}");
+            }
+        }
+    }
+}

@@ -70,6 +70,10 @@ pub trait NodeField: Sync {
     fn nodes(&self) -> usize;
     /// The value at node `n`.
     fn value(&self, n: usize) -> [f64; 3];
+    /// A hint that the values of nodes `n, n + 1, n + 2` (an x-row of a stencil) will soon be
+    /// read; nothing by default (computed fields).
+    #[inline(always)]
+    fn prefetch(&self, _n: usize) {}
 }
 
 impl NodeField for [[f64; 3]] {
@@ -80,6 +84,12 @@ impl NodeField for [[f64; 3]] {
     fn value(&self, n: usize) -> [f64; 3] {
         self[n]
     }
+    #[inline(always)]
+    fn prefetch(&self, n: usize) {
+        // Three nodes of 24 bytes: at most two cache lines, the first and the third node's.
+        crate::util::prefetch(self.as_ptr().wrapping_add(n));
+        crate::util::prefetch(self.as_ptr().wrapping_add(n + 2));
+    }
 }
 
 impl NodeField for Vec<[f64; 3]> {
@@ -89,6 +99,12 @@ impl NodeField for Vec<[f64; 3]> {
     #[inline(always)]
     fn value(&self, n: usize) -> [f64; 3] {
         self[n]
+    }
+    #[inline(always)]
+    fn prefetch(&self, n: usize) {
+        // Three nodes of 24 bytes: at most two cache lines, the first and the third node's.
+        crate::util::prefetch(self.as_ptr().wrapping_add(n));
+        crate::util::prefetch(self.as_ptr().wrapping_add(n + 2));
     }
 }
 
@@ -122,7 +138,11 @@ impl<F: Fn(usize) -> [f64; 3] + Sync> NodeField for FnField<F> {
 pub fn interpolate<F: NodeField + ?Sized>(field: &F, stencils: &Stencils, out: &mut [[f64; 3]]) {
     assert_eq!(out.len(), stencils.len(), "one output per marker");
     assert_eq!(field.nodes(), stencils.grid().nodes(), "field on the stencils' grid");
+    let (layout, markers) = (stencils.grid().layout(), out.len());
     out.par_iter_mut().with_min_len(256).enumerate().for_each(|(m, o)| {
+        if m + PREFETCH_AHEAD < markers {
+            stencils.for_each_row_in(layout, m + PREFETCH_AHEAD, |n| field.prefetch(n));
+        }
         let mut acc = [0.0; 3];
         stencils.for_each_node(m, |n, w| {
             let u = field.value(n);
@@ -148,6 +168,14 @@ pub trait ForceSink: Sync {
     /// accesses that node during the call.
     unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]);
 }
+
+/// How many markers ahead [`interpolate`] prefetches the rows of a marker's stencil in a
+/// stored field. The velocity is read at scattered rows that the hardware prefetchers cannot
+/// guess; beyond the last-level cache (s = 1/2 and up: 45 MB of velocities) each new row is
+/// otherwise a full memory latency. Only when values are fetched changes, not which or in
+/// what order: the same bits. (The same prefetch in the spreading gained nothing measurable:
+/// `benches/results/README.md`.)
+const PREFETCH_AHEAD: usize = 16;
 
 /// Spreads the marker forces onto the nodes: `field[n] += Σ_m δ_mn forces[m]` (adds; the
 /// caller zeroes `field` if it wants `S F` alone). Parallel over z-slabs in two phases,

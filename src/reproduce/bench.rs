@@ -53,6 +53,10 @@ pub struct CoupledBench {
     pub interior_ms: f64,
     /// Phases 4–5: forcing, ms per step.
     pub forcing_ms: f64,
+    /// The interpolation of phase 5 (part of `forcing_ms`), ms per step.
+    pub interpolate_ms: f64,
+    /// The spreading of phase 5 (part of `forcing_ms`), ms per step.
+    pub spread_ms: f64,
     /// Phase 6 inside the coupled step, ms per step.
     pub fluid_in_step_ms: f64,
     /// Phase 7–8: loads and external loads, ms per step.
@@ -213,6 +217,8 @@ pub fn bench_case(
         geometry_ms: per(timings.geometry),
         interior_ms: per(timings.interior),
         forcing_ms: per(timings.forcing),
+        interpolate_ms: per(timings.interpolation),
+        spread_ms: per(timings.spreading),
         fluid_in_step_ms: per(timings.fluid),
         bodies_ms: per(timings.bodies),
         contact_ms: per(timings.contacts),
