@@ -118,6 +118,7 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
     if !status.success() {
         return Err("slurry bench --coupled failed".into());
     }
+    inlining_guard(root)?;
     if let Some(bench_dir) = shared_bench(root) {
         println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
         let membw = run_script(&bench_dir.join("membw.sh"), &["128", "1", "2"])?;
@@ -133,8 +134,11 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
 /// `#[target_feature]` entry point: it is then compiled without AVX and calls every intrinsic
 /// as a function (seen once: `slurry run` at 45 MLUPS while this benchmark showed 150, because
 /// the two instantiate the kernel in different crates).
-fn inlining_guard(root: &Path) -> Result<(), String> {
+pub fn inlining_guard(root: &Path) -> Result<(), String> {
     let bin = root.join("target/release/slurry");
+    if !bin.exists() {
+        return Err(format!("{} is not built: nothing to check", bin.display()));
+    }
     let Ok(out) = Command::new("objdump").arg("-d").arg("--no-show-raw-insn").arg(&bin).output() else {
         println!("(objdump not found: skipping the check for out-of-line SIMD intrinsics)");
         return Ok(());
@@ -148,7 +152,36 @@ fn inlining_guard(root: &Path) -> Result<(), String> {
             bin.display()
         ));
     }
-    println!("inlining check: no out-of-line SIMD intrinsic calls in {}", bin.display());
+    // The dense moment pass's AVX2 copies must hold the vectorised row loop itself, not a call
+    // to a copy compiled without AVX2 (seen once: a generic helper in the loop lost its
+    // inlining, the copy shrank to 448 bytes and the interior phase ran 20–35 % slower).
+    let mut blocks = Vec::new();
+    let mut current: Option<usize> = None;
+    for line in text.lines() {
+        if line.ends_with(">:") {
+            current = line.contains("run_moments_avx2").then(|| {
+                blocks.push(0usize);
+                blocks.len() - 1
+            });
+        } else if let Some(b) = current {
+            blocks[b] += usize::from(line.contains("ymm"));
+        }
+    }
+    if cfg!(target_arch = "x86_64") && blocks.is_empty() {
+        return Err(format!("{}: no run_moments_avx2 found (renamed? update this check)", bin.display()));
+    }
+    if let Some(&few) = blocks.iter().find(|&&n| n < 16) {
+        return Err(format!(
+            "{}: a copy of run_moments_avx2 holds only {few} AVX2 (ymm) instructions: its row loop \
+             was not inlined into it (src/lbm/fluid.rs, run_moments_rows)",
+            bin.display()
+        ));
+    }
+    println!(
+        "inlining check: no out-of-line SIMD intrinsic calls in {}; {} vectorised copies of run_moments_avx2",
+        bin.display(),
+        blocks.len()
+    );
     Ok(())
 }
 

@@ -128,6 +128,10 @@ fn ci(root: &Path) -> Step {
     c.current_dir(root).args(["test", "--workspace", "--release"]);
     run("test", c)?;
 
+    // The tests built target/release/slurry (its integration tests need the binary).
+    header("inlining check of the release binary (SIMD paths compiled for their ISA)");
+    bench::inlining_guard(root).map_err(Failed)?;
+
     header("verification, quick tier");
     verify(root, &["--tier".into(), "quick".into()])
 }
