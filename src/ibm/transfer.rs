@@ -213,7 +213,11 @@ pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stenci
         return;
     }
     for phase in 0..2 {
-        (0..(slabs - phase).div_ceil(2)).into_par_iter().for_each(|k| {
+        // One task per slab (`with_max_len(1)`): the markers crowd into a few slabs (a settled
+        // bed, the impeller's plane), and rayon's adaptive splitting alone left a whole run
+        // of the heavy slabs to one thread (the spreading then took as long on 2 threads as
+        // on 1).
+        (0..(slabs - phase).div_ceil(2)).into_par_iter().with_max_len(1).for_each(|k| {
             let s = phase + 2 * k;
             for &m in stencils.slab_markers(s) {
                 let f = forces[m as usize];
