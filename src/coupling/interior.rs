@@ -108,6 +108,9 @@ impl InteriorNodes {
         let mut sums = Sums::default();
         row_spans(body, grid, periodic, 0.5, Some(-0.5), |s| {
             emit_runs(grid, periodic, (s.xa, s.xb, s.y, s.z), |run: Run, shift| {
+                // The run's momenta are read right after its weights, whose signed distances
+                // take about a memory latency to evaluate: fetch them meanwhile.
+                source.prefetch(run);
                 let first = alpha.len();
                 for x in run.x0..run.x0 + run.len {
                     let xu = x as i64 + shift[0];
