@@ -341,6 +341,20 @@ impl Stencils {
         }
     }
 
+    /// A hint that marker `m`'s stencil (its nodes, weights and lengths) will soon be read
+    /// ([`crate::util::prefetch`]): the spreading visits the markers slab by slab, not in the
+    /// order they are stored.
+    #[inline(always)]
+    pub fn prefetch_marker(&self, m: usize) {
+        if m < self.node.len() {
+            crate::util::prefetch(&self.node[m]);
+            let w = &self.weight[m];
+            crate::util::prefetch(w);
+            crate::util::prefetch(&w[2]);
+            crate::util::prefetch(&self.len[m]);
+        }
+    }
+
     /// The markers of slab `s`, in input order.
     pub(super) fn slab_markers(&self, s: usize) -> &[u32] {
         &self.order[self.slab_start[s] as usize..self.slab_start[s + 1] as usize]

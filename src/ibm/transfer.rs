@@ -219,7 +219,12 @@ pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stenci
         // on 1).
         (0..(slabs - phase).div_ceil(2)).into_par_iter().with_max_len(1).for_each(|k| {
             let s = phase + 2 * k;
-            for &m in stencils.slab_markers(s) {
+            let markers = stencils.slab_markers(s);
+            for (i, &m) in markers.iter().enumerate() {
+                if let Some(&ahead) = markers.get(i + PREFETCH_AHEAD) {
+                    stencils.prefetch_marker(ahead as usize);
+                    crate::util::prefetch(&forces[ahead as usize]);
+                }
                 let f = forces[m as usize];
                 stencils.for_each_node_in(layout, m as usize, |n, w| {
                     // SAFETY: a stencil node of the grid, in the sink's layout; by the phase
