@@ -132,6 +132,15 @@ impl<'a, T> SharedMut<'a, T> {
         *self.ptr.add(i)
     }
 
+    /// A hint that `slice[i]` will soon be read and written ([`prefetch`]); nothing for an
+    /// index past the end.
+    #[inline(always)]
+    pub fn prefetch(&self, i: usize) {
+        if i < self.len {
+            prefetch(self.ptr.wrapping_add(i).cast_const());
+        }
+    }
+
     /// `slice[i] = v`.
     ///
     /// # Safety
@@ -144,10 +153,10 @@ impl<'a, T> SharedMut<'a, T> {
 }
 
 /// A hint to the processor to bring the cache line holding `p` into its nearest cache, for a
-/// read that follows soon (a software prefetch, `prefetcht0` on x86-64; nothing on other
-/// targets). It never faults and changes no value, only when memory is fetched: for the
-/// scattered reads of the immersed boundary's interpolation, whose next rows the hardware
-/// prefetchers cannot guess.
+/// read or update that follows soon (a software prefetch, `prefetcht0` on x86-64; nothing on
+/// other targets). It never faults and changes no value, only when memory is fetched: for the
+/// scattered accesses of the immersed boundary, whose next rows the hardware prefetchers
+/// cannot guess.
 #[inline(always)]
 pub fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]

@@ -27,6 +27,11 @@ impl<T: Real> ForceSink for FieldSink<'_, T> {
     unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]) {
         self.writer.add(index, w, f)
     }
+
+    #[inline(always)]
+    fn prefetch(&self, index: usize) {
+        self.writer.prefetch(index)
+    }
 }
 
 impl<T: Real> Coupled<T> {

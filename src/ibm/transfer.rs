@@ -167,14 +167,20 @@ pub trait ForceSink: Sync {
     /// `index` is the layout's index of a node of the stencils' grid, and no other thread
     /// accesses that node during the call.
     unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]);
+
+    /// A hint that the node at `index` and the next ones of its x-row will soon be updated;
+    /// nothing by default.
+    #[inline(always)]
+    fn prefetch(&self, _index: usize) {}
 }
 
 /// How many markers ahead [`interpolate`] prefetches the rows of a marker's stencil in a
-/// stored field. The velocity is read at scattered rows that the hardware prefetchers cannot
-/// guess; beyond the last-level cache (s = 1/2 and up: 45 MB of velocities) each new row is
-/// otherwise a full memory latency. Only when values are fetched changes, not which or in
-/// what order: the same bits. (The same prefetch in the spreading gained nothing measurable:
-/// `benches/results/README.md`.)
+/// stored field, and [`spread_into`] a marker's stencil and force (its force-field rows half as
+/// far ahead, once that stencil has arrived). The field is read and updated at scattered rows
+/// that the hardware prefetchers cannot guess, and the spreading visits the markers slab by
+/// slab, out of their storage order; beyond the last-level cache (s = 1/2 and up: 45 MB of
+/// velocities, 58 MB of stencils) each is otherwise a memory latency. Only when values are
+/// fetched changes, not which or in what order: the same bits.
 const PREFETCH_AHEAD: usize = 16;
 
 /// Spreads the marker forces onto the nodes: `field[n] += Σ_m δ_mn forces[m]` (adds; the
@@ -224,6 +230,9 @@ pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stenci
                 if let Some(&ahead) = markers.get(i + PREFETCH_AHEAD) {
                     stencils.prefetch_marker(ahead as usize);
                     crate::util::prefetch(&forces[ahead as usize]);
+                }
+                if let Some(&near) = markers.get(i + PREFETCH_AHEAD / 2) {
+                    stencils.for_each_row_in(layout, near as usize, |n| sink.prefetch(n));
                 }
                 let f = forces[m as usize];
                 stencils.for_each_node_in(layout, m as usize, |n, w| {

@@ -677,6 +677,15 @@ impl<T: Real> ForceFieldWriter<'_, T> {
         }
     }
 
+    /// A hint that node `p`'s three components will soon be updated
+    /// ([`crate::util::prefetch`]): changes nothing but when they are fetched.
+    #[inline(always)]
+    pub fn prefetch(&self, p: usize) {
+        for a in 0..3 {
+            self.field.prefetch(a * self.stride + p);
+        }
+    }
+
     /// `field[p] = 0`.
     ///
     /// # Safety
