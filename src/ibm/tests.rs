@@ -290,7 +290,7 @@ fn fn_field_equals_slice() {
     assert_eq!(bits(&a), bits(&b));
 }
 
-/// `for_each_row_in` (the interpolation's prefetch addresses) names the first node of each
+/// `for_each_row_in` (the addresses the interpolation and the spreading prefetch) names the first node of each
 /// x-row of `for_each_node_in`, row by row, for every kernel, on periodic and walled axes
 /// (clipped stencils), in a padded layout.
 #[test]

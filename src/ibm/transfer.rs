@@ -102,9 +102,7 @@ impl NodeField for Vec<[f64; 3]> {
     }
     #[inline(always)]
     fn prefetch(&self, n: usize) {
-        // Three nodes of 24 bytes: at most two cache lines, the first and the third node's.
-        crate::util::prefetch(self.as_ptr().wrapping_add(n));
-        crate::util::prefetch(self.as_ptr().wrapping_add(n + 2));
+        self.as_slice().prefetch(n)
     }
 }
 
