@@ -86,6 +86,10 @@ struct ReproduceArgs {
     /// another from the same state; the manifest's sessions record each command.
     #[arg(long, requires = "resume")]
     switch_contacts: bool,
+    /// Start over in an output directory that holds an earlier run, replacing its checkpoint,
+    /// time series and particle history (without it, or --resume, such a directory is refused).
+    #[arg(long, conflicts_with = "resume")]
+    overwrite: bool,
     /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
     #[arg(long, value_name = "N")]
     threads: Option<NonZeroUsize>,
@@ -344,7 +348,8 @@ struct SettleArgs {
 struct RunArgs {
     /// The case file (TOML; see docs/case-format.md).
     case: PathBuf,
-    /// Output directory (created if needed; files of an earlier run are replaced).
+    /// Output directory (created if needed). One that holds an earlier run's checkpoint is
+    /// refused unless --resume or --overwrite says what to do with it.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Number of worker threads, at most the machine's hardware threads (default: all cores, or RAYON_NUM_THREADS).
@@ -362,6 +367,10 @@ struct RunArgs {
     /// contact scheme from the same state.
     #[arg(long, requires = "resume")]
     switch_contacts: bool,
+    /// Start over in DIR although it holds an earlier run's checkpoint, replacing that run's
+    /// checkpoint, time series and particle history.
+    #[arg(long, conflicts_with = "resume")]
+    overwrite: bool,
 }
 
 /// `slurry check`.
@@ -394,6 +403,7 @@ fn main() -> ExitCode {
             if e.downcast_ref::<CaseError>().is_some()
                 || e.downcast_ref::<BadInput>().is_some()
                 || e.downcast_ref::<slurry::run::BadResume>().is_some()
+                || e.downcast_ref::<slurry::run::WouldOverwrite>().is_some()
             {
                 ExitCode::from(EXIT_BAD_INPUT)
             } else {
@@ -467,7 +477,12 @@ fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
     let case = Case::from_file(&a.case)?;
     usable_out_dir(&a.out)?;
     let pool = thread_pool(a.threads)?;
-    let opts = RunOptions { quiet: a.quiet, resume: a.resume, switch_contacts: a.switch_contacts };
+    let opts = RunOptions {
+        quiet: a.quiet,
+        resume: a.resume,
+        switch_contacts: a.switch_contacts,
+        overwrite: a.overwrite,
+    };
     let summary = pool
         .install(|| run_case(&case, &a.out, opts))
         .with_context(|| format!("run of {} failed", a.case.display()))?;
@@ -591,6 +606,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             cache: cache.clone(),
             resume: a.resume,
             switch_contacts: a.switch_contacts,
+            overwrite: a.overwrite,
             quiet: a.quiet,
             bed: match a.bed {
                 BedArg::Dry => reproduce::BedMethod::default(),

@@ -88,6 +88,50 @@ pub struct RunOptions {
     /// [`Case::fingerprint_except_contact_scheme`]): a run continued under a cheaper (or the
     /// default) contact scheme, to measure one against the other from the same state.
     pub switch_contacts: bool,
+    /// Start afresh even though the output directory holds an earlier run's checkpoint,
+    /// replacing that run's checkpoint, time series and particle history. Without it (and
+    /// without `resume`) such a directory is refused ([`check_fresh_start`]).
+    pub overwrite: bool,
+}
+
+/// A fresh start refused: the output directory holds the checkpoint of an earlier run, which
+/// the start would replace with everything it wrote (its time series, particle history and
+/// checkpoint); see [`check_fresh_start`].
+#[derive(Clone, Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct WouldOverwrite(pub String);
+
+/// Refuses to start a run afresh in `dir` when it holds an earlier run's checkpoint
+/// (`checkpoint.h5`): such a start would replace that run's time series, particle history and
+/// checkpoint, hours of stepping, with one mistyped command. `resume` and `overwrite` name the
+/// caller's options that continue the run or accept its loss.
+///
+/// # Errors
+/// [`WouldOverwrite`], naming the checkpoint, its last time-series step where that can be read,
+/// and the two options.
+pub fn check_fresh_start(dir: &Path, resume: &str, overwrite: &str) -> Result<(), WouldOverwrite> {
+    let checkpoint = dir.join(files::CHECKPOINT);
+    if !checkpoint.exists() {
+        return Ok(());
+    }
+    let last = last_step(&dir.join(files::TIMESERIES))
+        .map(|s| format!(", time series to step {s}"))
+        .unwrap_or_default();
+    Err(WouldOverwrite(format!(
+        "{} holds an earlier run ({}{last}): pass {resume} to continue it, or {overwrite} to \
+         start over and replace its checkpoint, time series and particle history",
+        dir.display(),
+        checkpoint.display()
+    )))
+}
+
+/// The step of the last complete row of a time series, if it can be read.
+fn last_step(path: &Path) -> Option<u64> {
+    let text = std::fs::read_to_string(path).ok()?;
+    text.split_inclusive('\n')
+        .filter(|l| l.ends_with('\n'))
+        .rev()
+        .find_map(|l| l.split(',').next()?.parse::<u64>().ok())
 }
 
 /// What a finished run reports (also written as `summary.json`).
@@ -264,6 +308,9 @@ fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     case.check_memory().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    if !opts.resume && !opts.overwrite {
+        check_fresh_start(out_dir, "--resume", "--overwrite")?;
+    }
     std::fs::create_dir_all(out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     // Temporary files of a write that a kill interrupted (`.checkpoint.h5.tmp.PID`, …).

@@ -103,6 +103,37 @@ fn resume_extends_a_run_and_refuses_another_case() {
     assert!(String::from_utf8_lossy(&none.stderr).contains("checkpoint"));
 }
 
+/// A fresh start in a directory that holds an earlier run's checkpoint is refused (exit 2,
+/// the checkpoint, its last step and both options named) and changes no file; `--overwrite`
+/// starts over; `--overwrite` with `--resume` is a usage error.
+#[test]
+fn a_fresh_start_over_a_checkpoint_is_refused_unless_overwrite() {
+    let tmp = tempfile::tempdir().unwrap();
+    let c = write_case(tmp.path(), "c.toml", &case(400, 0.05));
+    let a = tmp.path().join("a");
+    assert!(run(&c, &a, false).status.success());
+    let series = std::fs::read(a.join("timeseries.csv")).unwrap();
+    let checkpoint = std::fs::read(a.join("checkpoint.h5")).unwrap();
+
+    let refused = run(&c, &a, false);
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    for needle in ["checkpoint.h5", "time series to step 400", "--resume", "--overwrite"] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    assert_eq!(std::fs::read(a.join("timeseries.csv")).unwrap(), series, "the series was touched");
+    assert_eq!(std::fs::read(a.join("checkpoint.h5")).unwrap(), checkpoint, "the checkpoint was touched");
+
+    let again =
+        Command::new(BIN).arg("run").arg(&c).arg("--out").arg(&a).args(["--quiet", "--overwrite"]).output();
+    assert!(again.unwrap().status.success());
+    assert_eq!(physics_rows(&a.join("timeseries.csv")).len(), 2 + 4, "the run started over");
+
+    let both =
+        Command::new(BIN).arg("run").arg(&c).arg("--out").arg(&a).args(["--resume", "--overwrite"]).output();
+    assert_eq!(both.unwrap().status.code(), Some(2), "clap's usage error");
+}
+
 fn particle_case(steps: u64) -> String {
     particle_case_with(steps, "", 8.0)
 }

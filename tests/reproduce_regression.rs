@@ -39,6 +39,7 @@ fn pbt_ld2_reduced_run() {
         cache: dir.path().join("cache"),
         resume: false,
         switch_contacts: false,
+        overwrite: false,
         quiet: true,
         bed: Default::default(),
         contacts: Default::default(),
@@ -112,6 +113,14 @@ fn pbt_ld2_reduced_run() {
     let fig = |f: &str| summary.parent().unwrap().join(f).is_file();
     assert!(fig("fig05_mean_height_pbt.png") && fig("fig09_orientation_mobile_pbt.svg"));
     assert!(!fig("fig05_mean_height_disk.png"));
+
+    // A fresh start over this run is refused before anything is written (an earlier campaign
+    // lost a run's series so); the error names both ways on.
+    let manifest = std::fs::read(opts.out.join("manifest.json")).unwrap();
+    let refused = reproduce("pbt-ld2", &opts).unwrap_err();
+    assert!(refused.downcast_ref::<slurry::run::WouldOverwrite>().is_some(), "{refused:#}");
+    assert!(format!("{refused}").contains("--resume") && format!("{refused}").contains("--overwrite"));
+    assert_eq!(std::fs::read(opts.out.join("manifest.json")).unwrap(), manifest);
 
     // A resume reads the bed back from the cache, and the checkpoint's fingerprint holds the
     // particles' positions: the bed read back must be bitwise the one settled in memory, or

@@ -350,6 +350,10 @@ pub struct ReproduceOptions {
     /// With `resume`: continue a checkpoint written under other contact sub-steps or another
     /// lubrication limiter setting ([`crate::run::RunOptions::switch_contacts`]).
     pub switch_contacts: bool,
+    /// Start afresh over an earlier run in `out` (its checkpoint, series and history are
+    /// replaced); without it, or `resume`, such a directory is refused
+    /// ([`crate::run::check_fresh_start`]).
+    pub overwrite: bool,
     /// No progress output.
     pub quiet: bool,
     /// How the bed is settled.
@@ -663,6 +667,11 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         file: PathBuf::from(format!("reproduce/{name}/case.toml at --scale {}", opts.scale)),
         kind,
     })?;
+    let run_dir = opts.out.join("run");
+    // Before the bed and the manifest: a fresh start would replace an earlier run's files.
+    if !opts.resume && !opts.overwrite {
+        crate::run::check_fresh_start(&run_dir, "--resume", "--overwrite")?;
+    }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
     let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet)?;
     if cached && !opts.quiet {
@@ -694,7 +703,6 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     };
     let session = manifest::this_session(rayon::current_num_threads());
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
-    let run_dir = opts.out.join("run");
     // The run to `opts.revolutions`; with --until-steady, continued in legs of
     // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's
     // steady test passes or the cap is reached.
@@ -714,7 +722,12 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         let leg = match run_case(
             &leg_case,
             &run_dir,
-            RunOptions { quiet: opts.quiet, resume, switch_contacts: opts.switch_contacts },
+            RunOptions {
+                quiet: opts.quiet,
+                resume,
+                switch_contacts: opts.switch_contacts,
+                overwrite: opts.overwrite && !resume,
+            },
         ) {
             Ok(run) => run,
             Err(e) => {
