@@ -277,6 +277,9 @@ pub struct Results {
     pub po_std: f64,
     /// The power window, revolutions `(from, to)`, and its sample count.
     pub power_window: (f64, f64, usize),
+    /// Whether the series covers the whole power window ([`stats::PowerAverages::covered`]:
+    /// long enough, and without a lost stretch).
+    pub power_covered: bool,
     /// The comparison with the paper.
     pub comparison: Vec<Comparison>,
     /// The profiles and series.
@@ -443,6 +446,7 @@ pub fn write_all(
         po: power.po,
         po_std: power.po_std,
         power_window: (power.from_rev, power.to_rev, power.samples),
+        power_covered: power.covered,
         comparison,
         stats: st.clone(),
     };
@@ -814,14 +818,22 @@ fn report_md(
     let _ = writeln!(
         m,
         "\nPower averages over t N = {:.1}–{:.1} ({} samples, after the ramp): Po_f {:.3}, Po_c {:.3}, total {:.3} \
-         (standard deviation of the total {:.3}).\n",
+         (standard deviation of the total {:.3}){}.\n",
         r.power_window.0,
         r.power_window.1,
         r.power_window.2,
         r.po_fluid + 0.0,
         r.po_solids + 0.0,
         r.po + 0.0,
-        r.po_std
+        r.po_std,
+        if r.power_covered {
+            String::new()
+        } else {
+            format!(
+                "; **the series does not cover the paper's window of {POWER_REVOLUTIONS} revolutions** (too short, or a \
+                 lost stretch: the average is over what there is)"
+            )
+        }
     );
     let _ = writeln!(m, "## Figures\n");
     for (stem, caption) in figs {

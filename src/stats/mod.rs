@@ -224,6 +224,34 @@ pub(crate) fn bins(tank: &Tank, bin_width: f64) -> Result<(usize, f64), StatsErr
 /// Relative slack for comparing revolution counts (steps over steps per revolution).
 const REV_EPS: f64 = 1e-9;
 
+/// A window of a series counts as covered only if no stretch of it longer than this fraction
+/// of its length lacks samples (the series are written every 0.05 revolution or so: a hole
+/// of 5 % of a 20-revolution window is 20 missing samples). Such a hole is a lost part of the
+/// run, e.g. a time series replaced and the run resumed from its checkpoint.
+pub const HOLE_FRACTION: f64 = 0.05;
+
+/// The longest stretch of `[cutoff, revs.last()]` without a sample: from `cutoff` to the first
+/// revolution at or after it, or between two consecutive ones after it, as `(from, to)`
+/// (`revs` ascending; `None` when no revolution reaches `cutoff`).
+fn largest_hole(revs: impl Iterator<Item = f64>, cutoff: f64) -> Option<(f64, f64)> {
+    let mut prev = None::<f64>;
+    let mut hole: Option<(f64, f64)> = None;
+    for r in revs.filter(|&r| r >= cutoff) {
+        let from = prev.unwrap_or(cutoff);
+        if hole.is_none_or(|(a, b)| r - from > b - a) {
+            hole = Some((from, r));
+        }
+        prev = Some(r);
+    }
+    hole
+}
+
+/// Whether the window `[cutoff, last]` of length `window_revs` has a hole longer than
+/// [`HOLE_FRACTION`] of it: the hole, if so.
+fn hole_in_window(revs: impl Iterator<Item = f64>, cutoff: f64, window_revs: f64) -> Option<(f64, f64)> {
+    largest_hole(revs, cutoff).filter(|(a, b)| b - a > HOLE_FRACTION * window_revs)
+}
+
 /// Mean particle height per frame (Figure 5): `(rev, ⟨z_p⟩/H)` with
 /// `⟨z_p⟩/H = (1/n) Σ_p (z_p + 0.5)/H`, `z_p` the centre's height (floor at `z = −0.5`).
 /// A uniform distribution over the tank gives 0.5. NaN for a frame without particles.
@@ -266,7 +294,8 @@ pub struct PowerAverages {
     pub to_rev: f64,
     /// Samples averaged.
     pub samples: usize,
-    /// Whether the series spans the whole requested window (else the average covers less).
+    /// Whether the series spans the whole requested window without a hole longer than
+    /// [`HOLE_FRACTION`] of it (else the average covers less).
     pub covered: bool,
 }
 
@@ -294,7 +323,8 @@ pub fn power_averages(series: &[(f64, f64, f64)], last_revs: f64) -> Result<Powe
         from_rev: w[0].0,
         to_rev: last.0,
         samples: w.len(),
-        covered: last.0 - first.0 >= last_revs * (1.0 - REV_EPS),
+        covered: last.0 - first.0 >= last_revs * (1.0 - REV_EPS)
+            && hole_in_window(series.iter().map(|s| s.0), cutoff, last_revs).is_none(),
     })
 }
 
@@ -303,7 +333,8 @@ pub fn power_averages(series: &[(f64, f64, f64)], last_revs: f64) -> Result<Powe
 pub struct SteadyTest {
     /// The window asked for, revolutions.
     pub window_revs: f64,
-    /// The part of it the series covers: `min(rev_last − rev_first, window_revs)`.
+    /// The part of it the series covers: `min(rev_last − rev_first, window_revs)`, less the
+    /// longest hole in the window if that is longer than [`HOLE_FRACTION`] of it.
     pub window_revs_available: f64,
     /// Samples in the window.
     pub samples: usize,
@@ -327,8 +358,9 @@ pub struct SteadyTest {
 /// β = Σ (rev_i − r̄)(v_i − v̄) / Σ (rev_i − r̄)²,   drift = β · window_revs,
 /// ```
 ///
-/// and the series counts as steady when it spans at least `window_revs` revolutions (the
-/// window is fully covered) and `|drift| ≤ tolerance`. [`SteadyTest::reason`] names the
+/// and the series counts as steady when it spans at least `window_revs` revolutions without a
+/// hole longer than [`HOLE_FRACTION`] of the window (the window is fully covered) and
+/// `|drift| ≤ tolerance`. [`SteadyTest::reason`] names the
 /// conditions that failed, with their numbers.
 pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> SteadyTest {
     let mut t = SteadyTest {
@@ -363,6 +395,13 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
     if !covered {
         failed.push(format!(
             "the series spans {span:.3} revolutions, less than the {window_revs} of the window"
+        ));
+    } else if let Some((a, b)) = hole_in_window(series.iter().map(|s| s.0), cutoff, window_revs) {
+        t.window_revs_available = window_revs - (b - a);
+        failed.push(format!(
+            "the window has no samples from revolution {a:.3} to {b:.3} ({:.3} of its {window_revs} \
+             revolutions; a lost part of the run)",
+            b - a
         ));
     }
     if t.drift.is_nan() {

@@ -93,6 +93,34 @@ fn steady_state_fits_the_window_and_names_what_failed() {
     assert!(!steady_state(&[], 20.0, 0.01).steady);
 }
 
+/// A series with a lost stretch (a run resumed after its series was replaced: rows of the
+/// start, then the rows from the checkpoint on) spans the window but does not cover it: the
+/// steady test and the power average say so; a hole before the window does not matter.
+#[test]
+fn a_hole_in_the_window_is_not_coverage() {
+    let rows = |keep: &dyn Fn(f64) -> bool| -> Vec<f64> {
+        (0..=2000).map(|k| 0.05 * k as f64).filter(|&r| keep(r)).collect()
+    };
+    // Samples to revolution 0.15, then from 87.5 to 100: 12.5 of the 20-revolution window.
+    let lost = rows(&|r| !(0.15 < r && r < 87.5));
+    let flat: Vec<(f64, f64)> = lost.iter().map(|&r| (r, 0.3)).collect();
+    let t = steady_state(&flat, 20.0, 0.01);
+    assert!(!t.steady && t.reason.contains("no samples from revolution"), "{}", t.reason);
+    assert!((t.window_revs_available - 12.5).abs() < 0.06, "{}", t.window_revs_available);
+    let power: Vec<(f64, f64, f64)> = lost.iter().map(|&r| (r, 2.0, 1.0)).collect();
+    let p = power_averages(&power, 30.0).unwrap();
+    assert!(!p.covered && (p.from_rev - 87.5).abs() < 1e-9, "{p:?}");
+    // The same hole before both windows: covered, steady.
+    let early = rows(&|r| !(0.15 < r && r < 60.0));
+    let t = steady_state(&early.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01);
+    assert!(t.steady && t.window_revs_available == 20.0, "{}", t.reason);
+    let p = power_averages(&early.iter().map(|&r| (r, 2.0, 1.0)).collect::<Vec<_>>(), 30.0).unwrap();
+    assert!(p.covered, "{p:?}");
+    // Holes of up to 5 % of the window (one revolution of 20) still count as coverage.
+    let small = rows(&|r| !(90.0 < r && r < 90.95));
+    assert!(steady_state(&small.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01).steady);
+}
+
 fn cylinder(d: f64, l: f64) -> ParticleProperties {
     let volume = 0.25 * PI * d * d * l;
     ParticleProperties {
