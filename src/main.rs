@@ -6,6 +6,7 @@
 //! slurry check CASE.toml
 //! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--until-steady CAP] [--quick] [--out DIR] [--resume]
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
+//! slurry resolution RUN_DIR... [--out FILE]
 //! ```
 //!
 //! Exit status: 0 on success; 2 for bad input (case file, command line); 1 for numerical
@@ -44,6 +45,21 @@ enum Command {
     Bench(BenchArgs),
     /// Reproduce one of the paper's stirred cases (or all six): bed, run, statistics, figures, report.
     Reproduce(ReproduceArgs),
+    /// The resolution study of one case: its reproductions at several scales side by side, with
+    /// the observed order and Richardson estimate from the three finest steady ones.
+    Resolution(ResolutionArgs),
+}
+
+/// `slurry resolution`.
+#[derive(Args, Debug)]
+struct ResolutionArgs {
+    /// The output directories of `slurry reproduce` runs of one case at distinct scales (or
+    /// their archives): each holds the report's `statistics.json`.
+    #[arg(required = true, value_name = "RUN_DIR")]
+    runs: Vec<PathBuf>,
+    /// Also write the table (Markdown) to this file, atomically.
+    #[arg(long, value_name = "FILE")]
+    out: Option<PathBuf>,
 }
 
 /// `slurry reproduce`.
@@ -136,6 +152,19 @@ enum BedArg {
     Dry,
     /// Settled in the fluid.
     Wet,
+}
+
+/// `slurry resolution`: the table on stdout (and in `--out`). Runs that cannot be read, or
+/// that are not one case at distinct scales, are bad input (exit status 2).
+fn cmd_resolution(a: ResolutionArgs) -> anyhow::Result<()> {
+    let text = slurry::reproduce::resolution::write_resolution(&a.runs, None)
+        .map_err(|e| BadInput(format!("{e:#}")))?;
+    print!("{text}");
+    if let Some(out) = &a.out {
+        slurry::io::atomic_write_bytes(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    Ok(())
 }
 
 /// `slurry bench`.
@@ -395,6 +424,7 @@ fn main() -> ExitCode {
         Command::Check(a) => cmd_check(a),
         Command::Bench(a) => cmd_bench(a),
         Command::Reproduce(a) => cmd_reproduce(a),
+        Command::Resolution(a) => cmd_resolution(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,7 @@
 //! Small utilities shared by the modules, tests, verification cases and benchmarks: seeded
-//! random numbers, compensated sums, integer floor and ceil, number formatting, and
-//! [`SharedMut`], the one shared mutable slice of the parallel phases.
+//! random numbers, compensated sums, integer floor and ceil, number formatting, the observed
+//! order and Richardson estimate of three resolutions ([`richardson3`]), and [`SharedMut`],
+//! the one shared mutable slice of the parallel phases.
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny, seeded, portable pseudo-random generator.
 /// Used wherever a test or verification case needs reproducible random input; it is not for
@@ -170,9 +171,55 @@ pub fn prefetch<T>(p: *const T) {
     let _ = p;
 }
 
+/// The observed order `p` and the Richardson estimate `f₀` of a quantity `f` computed at three
+/// grid spacings `h₀ > h₁ > h₂` (any ratios), assuming `f(h) = f₀ + C hᵖ`:
+///
+/// ```text
+/// (f[0] − f[1])/(f[1] − f[2]) = (h₀ᵖ − h₁ᵖ)/(h₁ᵖ − h₂ᵖ)     (solved for p by bisection on (0.05, 8))
+/// f₀ = f₂ − (f₁ − f₂)/((h₁/h₂)ᵖ − 1)
+/// ```
+///
+/// `None` when the sequence is not monotone (the differences change sign), or when no `p` in
+/// the bracket fits: then no order can be claimed from these three points.
+pub fn richardson3(h: [f64; 3], f: [f64; 3]) -> Option<(f64, f64)> {
+    assert!(h[0] > h[1] && h[1] > h[2] && h[2] > 0.0, "spacings must decrease: {h:?}");
+    let (d01, d12) = (f[0] - f[1], f[1] - f[2]);
+    if d01 == 0.0 || d12 == 0.0 || d01.signum() != d12.signum() {
+        return None;
+    }
+    let target = d01 / d12;
+    let ratio = |p: f64| (h[0].powf(p) - h[1].powf(p)) / (h[1].powf(p) - h[2].powf(p));
+    let (mut lo, mut hi) = (0.05, 8.0);
+    // `ratio` increases with p for decreasing spacings.
+    if !(ratio(lo) <= target && target <= ratio(hi)) {
+        return None;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if ratio(mid) < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let p = 0.5 * (lo + hi);
+    Some((p, f[2] - d12 / ((h[1] / h[2]).powf(p) - 1.0)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn richardson3_recovers_order_and_limit_for_unequal_ratios() {
+        let h = [4.0, 3.0, 2.0];
+        for p in [0.7, 1.0, 2.0] {
+            let f = h.map(|v: f64| 2.5 + 0.3 * v.powf(p));
+            let (q, f0) = richardson3(h, f).unwrap();
+            assert!((q - p).abs() < 1e-9 && (f0 - 2.5).abs() < 1e-9, "p {p}: got {q}, {f0}");
+        }
+        assert!(richardson3(h, [1.0, 2.0, 1.5]).is_none(), "non-monotone");
+    }
 
     #[test]
     fn shared_mut_tasks_write_disjoint_indices() {

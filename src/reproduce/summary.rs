@@ -137,7 +137,13 @@ impl Findings {
     }
 }
 
-/// The paper's four qualitative findings (its Results and Conclusions), each checked on the
+/// Our reading of the paper's "virtual absence of particles above the disk" (Results, text on
+/// Figure 7): under a tenth of the solids volume above the disk's plane. A suspension uniform
+/// over the height has half of it there; the paper's own profiles (Figure 6, upper panel) show
+/// the disk's solids below it, so a tenth is generous.
+pub const FEW_ABOVE: f64 = 0.10;
+
+/// The paper's five qualitative findings (its Results and Conclusions), each checked on the
 /// **steady** cases given as `(impeller, ℓ/d, findings)`: a line per finding, saying
 /// "confirmed", "not confirmed" or "not tested" and the numbers that show it.
 ///
@@ -147,8 +153,13 @@ impl Findings {
 ///    `sin φ` is the smallest of the impeller's steady aspect ratios.
 /// 3. Rotational kinetic energy is more than an order of magnitude below linear: the ratio is
 ///    at least 10 in every steady case.
-/// 4. The disk leaves few particles above it: less solids above mid-height with the disk than
-///    with the PBT at the same ℓ/d.
+/// 4. The disk leaves few particles above it ("the solids hardly reach vertical levels higher
+///    than the disk", "the virtual absence of particles above the disk"): less than
+///    [`FEW_ABOVE`] of the solids volume above mid-height (the disk's plane) with the disk, and
+///    less than with the PBT at the same ℓ/d. Lower than the PBT's alone is reported as such,
+///    not as confirmed.
+/// 5. The disk suspends less than the PBT ("the disk shows lower ⟨z_p⟩/H levels than the
+///    PBT"): `⟨z_p⟩/H` lower with the disk at each ℓ/d where both are steady.
 pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
     let steady: Vec<&(&str, f64, Findings)> = cases.iter().filter(|c| c.2.steady).collect();
     let of = |imp: &str| {
@@ -251,7 +262,11 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
             let p = of("pbt").into_iter().find(|p| p.1 == d.1)?;
             Some(format!(
                 "{} at ℓ/d = {}: {:.1} % of the solids above mid-height with the disk, {:.1} % with the PBT",
-                if d.2.above_impeller < p.2.above_impeller { "confirmed" } else { "not confirmed" },
+                match (d.2.above_impeller < p.2.above_impeller, d.2.above_impeller < FEW_ABOVE) {
+                    (true, true) => "confirmed",
+                    (true, false) => "lower than with the PBT, but not few",
+                    (false, _) => "not confirmed",
+                },
                 d.1,
                 100.0 * d.2.above_impeller,
                 100.0 * p.2.above_impeller
@@ -260,6 +275,26 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
         .collect();
     out.push(finding(
         "The disk leaves few particles above it",
+        pairs,
+        "a disk case and the PBT at the same ℓ/d, both steady",
+    ));
+
+    // 5.
+    let pairs: Vec<String> = of("disk")
+        .iter()
+        .filter_map(|d| {
+            let p = of("pbt").into_iter().find(|p| p.1 == d.1)?;
+            Some(format!(
+                "{} at ℓ/d = {}: ⟨z_p⟩/H {:.3} with the disk, {:.3} with the PBT",
+                if d.2.mean_height < p.2.mean_height { "confirmed" } else { "not confirmed" },
+                d.1,
+                d.2.mean_height,
+                p.2.mean_height
+            ))
+        })
+        .collect();
+    out.push(finding(
+        "The disk suspends less than the PBT",
         pairs,
         "a disk case and the PBT at the same ℓ/d, both steady",
     ));
@@ -523,7 +558,7 @@ mod tests {
     fn verdicts_use_the_steady_cases_and_say_what_fails() {
         // Nothing steady: nothing tested, whatever the numbers.
         let v = verdicts(&[("pbt", 2.0, f(false, 0.3, 60.0, 0.1, 30.0, 0.3))]);
-        assert_eq!(v.len(), 4);
+        assert_eq!(v.len(), 5);
         assert!(v.iter().all(|l| l.contains("not tested")), "{v:?}");
 
         // The two steady PBT cases of the archive (2026-11-26): confirmed, with the numbers.
@@ -542,6 +577,7 @@ mod tests {
             v[2]
         );
         assert!(v[3].contains("not tested"), "{}", v[3]);
+        assert!(v[4].contains("not tested"), "{}", v[4]);
 
         // Each finding can fail.
         let lower = f(true, 0.30, 70.0, 0.5, 8.0, 0.4);
@@ -553,5 +589,33 @@ mod tests {
         assert!(v[1].contains("measured (no other aspect ratio to compare) for the disk"), "{}", v[1]);
         assert!(v[2].starts_with("Rotational") && v[2].contains(": not confirmed:"), "{}", v[2]);
         assert!(v[3].contains("not confirmed at ℓ/d = 1: 45.0 % of the solids above mid-height with the disk, 20.0 % with the PBT"), "{}", v[3]);
+        assert!(
+            v[4].contains("confirmed at ℓ/d = 1: ⟨z_p⟩/H 0.200 with the disk, 0.250 with the PBT"),
+            "{}",
+            v[4]
+        );
+        assert!(!v[4].contains("not confirmed"), "{}", v[4]);
+
+        // The disk cases of the archive at s = 1/4 (2026-11-26): fewer solids above the disk
+        // than above the PBT, but a quarter of them, not the paper's "virtual absence"; and
+        // not lower than the PBT at ℓ/d = 2.
+        let disk2 = f(true, 0.334, 64.3, 0.131, 35.0, 0.268);
+        let disk4 = f(true, 0.327, 65.7, 0.329, 16.0, 0.253);
+        let few = f(true, 0.2, 60.0, 0.3, 40.0, 0.05);
+        let v = verdicts(&[("pbt", 2.0, ld2), ("pbt", 4.0, ld4), ("disk", 2.0, disk2), ("disk", 4.0, disk4)]);
+        assert!(v[3].contains("lower than with the PBT, but not few at ℓ/d = 2: 26.8 %"), "{}", v[3]);
+        assert!(v[3].contains("lower than with the PBT, but not few at ℓ/d = 4: 25.3 %"), "{}", v[3]);
+        assert!(
+            v[4].contains("not confirmed at ℓ/d = 2: ⟨z_p⟩/H 0.334 with the disk, 0.332 with the PBT"),
+            "{}",
+            v[4]
+        );
+        assert!(
+            v[4].contains("; confirmed at ℓ/d = 4: ⟨z_p⟩/H 0.327 with the disk, 0.374 with the PBT"),
+            "{}",
+            v[4]
+        );
+        let v = verdicts(&[("pbt", 2.0, ld2), ("disk", 2.0, few)]);
+        assert!(v[3].contains("confirmed at ℓ/d = 2: 5.0 %") && !v[3].contains("not"), "{}", v[3]);
     }
 }

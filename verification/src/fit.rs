@@ -21,40 +21,9 @@ pub fn order(resolution: &[f64], error: &[f64]) -> f64 {
     -line(&lx, &ly).1
 }
 
-/// The observed order `p` and the Richardson estimate `f₀` of a quantity `f` computed at three
-/// grid spacings `h₀ > h₁ > h₂` (any ratios), assuming `f(h) = f₀ + C hᵖ`:
-///
-/// ```text
-/// (f₀' − f₁)/(f₁ − f₂) = (h₀ᵖ − h₁ᵖ)/(h₁ᵖ − h₂ᵖ)     (solved for p by bisection on (0.05, 8))
-/// f₀ = f₂ − (f₁ − f₂)/((h₁/h₂)ᵖ − 1)
-/// ```
-///
-/// `None` when the sequence is not monotone (the differences change sign), or when no `p` in
-/// the bracket fits: then no order can be claimed from these three points.
-pub fn richardson3(h: [f64; 3], f: [f64; 3]) -> Option<(f64, f64)> {
-    assert!(h[0] > h[1] && h[1] > h[2] && h[2] > 0.0, "spacings must decrease: {h:?}");
-    let (d01, d12) = (f[0] - f[1], f[1] - f[2]);
-    if d01 == 0.0 || d12 == 0.0 || d01.signum() != d12.signum() {
-        return None;
-    }
-    let target = d01 / d12;
-    let ratio = |p: f64| (h[0].powf(p) - h[1].powf(p)) / (h[1].powf(p) - h[2].powf(p));
-    let (mut lo, mut hi) = (0.05, 8.0);
-    // `ratio` increases with p for decreasing spacings.
-    if !(ratio(lo) <= target && target <= ratio(hi)) {
-        return None;
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if ratio(mid) < target {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    let p = 0.5 * (lo + hi);
-    Some((p, f[2] - d12 / ((h[1] / h[2]).powf(p) - 1.0)))
-}
+/// The observed order and Richardson estimate from three resolutions; lives in the library,
+/// where the reproduction's resolution study uses it too.
+pub use slurry::util::richardson3;
 
 /// Relative L2 error `sqrt(Σ (a−b)² / Σ b²)` of `a` against the reference `b`.
 pub fn rel_l2(a: &[f64], b: &[f64]) -> f64 {
@@ -81,17 +50,6 @@ mod tests {
         let n = [8.0, 16.0, 32.0, 64.0];
         let e: Vec<f64> = n.iter().map(|v: &f64| 3.0 * v.powf(-2.0)).collect();
         assert!((order(&n, &e) - 2.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn richardson3_recovers_order_and_limit_for_unequal_ratios() {
-        let h = [4.0, 3.0, 2.0];
-        for p in [0.7, 1.0, 2.0] {
-            let f = h.map(|v: f64| 2.5 + 0.3 * v.powf(p));
-            let (q, f0) = richardson3(h, f).unwrap();
-            assert!((q - p).abs() < 1e-9 && (f0 - 2.5).abs() < 1e-9, "p {p}: got {q}, {f0}");
-        }
-        assert!(richardson3(h, [1.0, 2.0, 1.5]).is_none(), "non-monotone");
     }
 
     #[test]

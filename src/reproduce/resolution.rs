@@ -1,0 +1,327 @@
+//! The resolution study of one case (`slurry resolution RUN_DIR...`): its statistics at
+//! several scales side by side, the change between neighbouring scales, and, from the three
+//! finest **steady** scales when their values are monotone, the observed order `p` and the
+//! Richardson estimate `f₀` of
+//!
+//! ```text
+//! f(h) = f₀ + C hᵖ,    h = 1/s    (the grid spacing in units of the paper's: d = 12 s nodes)
+//! ```
+//!
+//! ([`crate::util::richardson3`]). This table decides what a reduced-scale regression may
+//! assert against the paper: a band is supported where the sequence converges towards the
+//! paper's value, not where it is one point or wanders.
+//!
+//! What counts as a point: a run whose report's steady test passed. A run that is not steady
+//! is listed (its values in italics) but never enters an order or a limit: a transient is not a
+//! point of a resolution study. Each run is read from its report's `statistics.json` (the
+//! `--out` directory of `slurry reproduce`, or an archive of it), so the study can be redrawn
+//! whenever a scale finishes.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+use super::paper_case;
+use crate::io::atomic_write_bytes;
+use crate::util::richardson3;
+
+/// The statistics the study compares: `statistics.json` key and label.
+pub const QUANTITIES: [(&str, &str); 4] =
+    [("mean_height", "⟨z_p⟩/H"), ("po_fluid", "Po_f"), ("po_solids", "Po_c"), ("po", "Po")];
+
+/// One scale of the study: one run's report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// Where it was read from.
+    pub dir: PathBuf,
+    /// Scale `s` (1: the paper's grid).
+    pub scale: f64,
+    /// Revolutions after the ramp at the report.
+    pub revolutions: f64,
+    /// The report's steady test passed.
+    pub steady: bool,
+    /// The values of [`QUANTITIES`], in order (`None`: not in the report).
+    pub values: [Option<f64>; 4],
+}
+
+/// Reads one run's `statistics.json`: the case's name and its [`Point`].
+///
+/// # Errors
+/// The file is missing or not a report's statistics (no `case` or `scale`).
+pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
+    let path = dir.join("statistics.json");
+    let text = std::fs::read_to_string(&path).with_context(|| {
+        format!(
+            "cannot read {}: give the output directory of a finished `slurry reproduce` run",
+            path.display()
+        )
+    })?;
+    let json: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
+    let num = |k: &str| json.get(k).and_then(serde_json::Value::as_f64);
+    let case = json
+        .get("case")
+        .and_then(serde_json::Value::as_str)
+        .with_context(|| format!("{}: no \"case\" (not a report's statistics)", path.display()))?
+        .to_string();
+    let scale = num("scale")
+        .filter(|s| s.is_finite() && *s > 0.0)
+        .with_context(|| format!("{}: no positive \"scale\"", path.display()))?;
+    let point = Point {
+        dir: dir.to_path_buf(),
+        scale,
+        revolutions: num("revolutions").unwrap_or(f64::NAN),
+        steady: json.get("steady").and_then(serde_json::Value::as_bool).unwrap_or(false),
+        values: QUANTITIES.map(|(k, _)| num(k).filter(|v| v.is_finite())),
+    };
+    Ok((case, point))
+}
+
+/// What three or more steady points say about one quantity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Convergence {
+    /// Fewer than three steady scales with a value: no order can be fitted.
+    TooFew(usize),
+    /// The three finest steady values are not monotone, or no order in (0.05, 8) fits them.
+    NotMonotone,
+    /// The observed order and the Richardson estimate of the limit.
+    Order {
+        /// `p`.
+        order: f64,
+        /// `f₀`.
+        limit: f64,
+    },
+}
+
+/// The convergence of quantity `q` (an index into [`QUANTITIES`]) over the steady points,
+/// from the three finest. `points` sorted by increasing scale, scales distinct.
+pub fn convergence(points: &[Point], q: usize) -> Convergence {
+    let steady: Vec<(f64, f64)> =
+        points.iter().filter(|p| p.steady).filter_map(|p| p.values[q].map(|v| (1.0 / p.scale, v))).collect();
+    if steady.len() < 3 {
+        return Convergence::TooFew(steady.len());
+    }
+    let t = &steady[steady.len() - 3..];
+    match richardson3([t[0].0, t[1].0, t[2].0], [t[0].1, t[1].1, t[2].1]) {
+        Some((order, limit)) => Convergence::Order { order, limit },
+        None => Convergence::NotMonotone,
+    }
+}
+
+/// Sorts the points by scale and checks they are one study: distinct scales.
+///
+/// # Errors
+/// Two runs at the same scale.
+pub fn order_points(mut points: Vec<Point>) -> anyhow::Result<Vec<Point>> {
+    points.sort_by(|a, b| a.scale.total_cmp(&b.scale));
+    for w in points.windows(2) {
+        if (w[1].scale - w[0].scale).abs() <= 1e-9 * w[1].scale {
+            anyhow::bail!(
+                "{} and {} are both at scale {}: give one run per scale",
+                w[0].dir.display(),
+                w[1].dir.display(),
+                w[0].scale
+            );
+        }
+    }
+    Ok(points)
+}
+
+/// The study's Markdown: one row per scale, then the change between neighbouring steady
+/// scales and the convergence of each quantity, beside the paper's values.
+///
+/// # Errors
+/// `case` is not one of the paper's cases.
+pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
+    let paper = paper_case(case)?.paper()?;
+    let paper_of = |key: &str| paper.values.iter().find(|v| v.key == key).and_then(|v| v.paper);
+    let cell = |v: Option<f64>, steady: bool| match (v, steady) {
+        (Some(v), true) => format!("{v:.3}"),
+        (Some(v), false) => format!("*{v:.3}*"),
+        (None, _) => "–".to_string(),
+    };
+    let mut s = String::new();
+    let _ = writeln!(s, "# Resolution study: {case}\n");
+    let _ = writeln!(
+        s,
+        "Each row is one run's report (`statistics.json`): ⟨z_p⟩/H over the steady test's window, \
+         the power numbers over the last 30 revolutions. *Italics*: the run is not steady, so it \
+         is listed but enters no order or limit. h = 1/s is the grid spacing in units of the \
+         paper's (d = 12 s lattice spacings).\n"
+    );
+    let mut header = "| s | d | revolutions | steady |".to_string();
+    let mut rule = "|---|---|---|---|".to_string();
+    for (_, label) in QUANTITIES {
+        header += &format!(" {label} |");
+        rule += "---|";
+    }
+    let _ = writeln!(s, "{header}\n{rule}");
+    for p in points {
+        let mut row = format!(
+            "| {} | {} | {:.0} | {} |",
+            crate::util::fmt_num((p.scale * 1e4).round() / 1e4),
+            crate::util::fmt_num((12.0 * p.scale * 100.0).round() / 100.0),
+            p.revolutions,
+            if p.steady { "yes" } else { "no" }
+        );
+        for v in p.values {
+            row += &format!(" {} |", cell(v, p.steady));
+        }
+        let _ = writeln!(s, "{row}");
+    }
+    let mut row = "| paper | 12 | | |".to_string();
+    for (key, _) in QUANTITIES {
+        row += &format!(" {} |", paper_of(key).map_or("–".to_string(), |v| format!("{v}")));
+    }
+    let _ = writeln!(s, "{row}");
+
+    let _ = writeln!(s, "\n## Convergence\n");
+    let _ = writeln!(s, "| quantity | change between neighbouring steady scales | observed order p | Richardson limit f₀ | paper |");
+    let _ = writeln!(s, "|---|---|---|---|---|");
+    for (q, (key, label)) in QUANTITIES.iter().enumerate() {
+        let steady: Vec<&Point> = points.iter().filter(|p| p.steady && p.values[q].is_some()).collect();
+        let changes = steady
+            .windows(2)
+            .map(|w| {
+                format!(
+                    "{:+.3} (s {} → {})",
+                    w[1].values[q].unwrap_or(f64::NAN) - w[0].values[q].unwrap_or(f64::NAN),
+                    crate::util::fmt_num((w[0].scale * 1e4).round() / 1e4),
+                    crate::util::fmt_num((w[1].scale * 1e4).round() / 1e4)
+                )
+            })
+            .collect::<Vec<_>>();
+        let (order, limit) = match convergence(points, q) {
+            Convergence::TooFew(n) => {
+                (format!("– ({n} steady scale{}; needs 3)", if n == 1 { "" } else { "s" }), "–".into())
+            }
+            Convergence::NotMonotone => ("– (not monotone: no order claimed)".into(), "–".into()),
+            Convergence::Order { order, limit } => (format!("{order:.2}"), format!("{limit:.3}")),
+        };
+        let _ = writeln!(
+            s,
+            "| {label} | {} | {order} | {limit} | {} |",
+            if changes.is_empty() { "–".to_string() } else { changes.join(", ") },
+            paper_of(key).map_or("–".to_string(), |v| format!("{v}"))
+        );
+    }
+    let _ = writeln!(s, "\nRuns:\n");
+    for p in points {
+        let _ = writeln!(
+            s,
+            "- s = {}: `{}`",
+            crate::util::fmt_num((p.scale * 1e4).round() / 1e4),
+            p.dir.display()
+        );
+    }
+    Ok(s)
+}
+
+/// `slurry resolution`: reads the runs, checks they are one case at distinct scales, and
+/// returns the table (written atomically to `out` too, when given).
+///
+/// # Errors
+/// A run's statistics cannot be read; the runs are of different cases or share a scale; the
+/// case is not one of the paper's; `out` cannot be written.
+pub fn write_resolution(dirs: &[PathBuf], out: Option<&Path>) -> anyhow::Result<String> {
+    anyhow::ensure!(
+        !dirs.is_empty(),
+        "no runs given: name the output directories of one case at several scales"
+    );
+    let mut case: Option<(String, PathBuf)> = None;
+    let mut points = Vec::new();
+    for d in dirs {
+        let (c, p) = read_point(d)?;
+        match &case {
+            Some((first, dir)) if *first != c => anyhow::bail!(
+                "{} is {c} but {} is {first}: a resolution study is one case at several scales",
+                d.display(),
+                dir.display()
+            ),
+            Some(_) => {}
+            None => case = Some((c, d.clone())),
+        }
+        points.push(p);
+    }
+    let (case, _) = case.expect("dirs is not empty");
+    let text = table(&case, &order_points(points)?)?;
+    if let Some(out) = out {
+        atomic_write_bytes(out, text.as_bytes())
+            .with_context(|| format!("cannot write {}", out.display()))?;
+    }
+    Ok(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(scale: f64, steady: bool, values: [f64; 4]) -> Point {
+        Point {
+            dir: PathBuf::from(format!("s{scale}")),
+            scale,
+            revolutions: 200.0,
+            steady,
+            values: values.map(Some),
+        }
+    }
+
+    #[test]
+    fn the_order_comes_from_the_three_finest_steady_scales() {
+        // f(h) = 0.30 + 0.02 h^1.5 at h = 4, 3, 2 (s = 1/4, 1/3, 1/2), and a transient at s = 1.
+        let f = |s: f64| 0.30 + 0.02 * (1.0f64 / s).powf(1.5);
+        let pts = vec![
+            point(0.25, true, [f(0.25); 4]),
+            point(1.0 / 3.0, true, [f(1.0 / 3.0); 4]),
+            point(0.5, true, [f(0.5); 4]),
+            point(1.0, false, [0.9; 4]),
+        ];
+        let pts = order_points(pts).unwrap();
+        match convergence(&pts, 0) {
+            Convergence::Order { order, limit } => {
+                assert!((order - 1.5).abs() < 1e-6 && (limit - 0.30).abs() < 1e-6, "{order} {limit}")
+            }
+            other => panic!("{other:?}"),
+        }
+        // Two steady scales: no order.
+        assert_eq!(convergence(&pts[..2], 0), Convergence::TooFew(2));
+        // Not monotone: no order claimed.
+        let zig =
+            vec![point(0.25, true, [0.33; 4]), point(0.4, true, [0.31; 4]), point(0.5, true, [0.32; 4])];
+        assert_eq!(convergence(&zig, 0), Convergence::NotMonotone);
+    }
+
+    #[test]
+    fn the_table_marks_transients_and_says_what_it_cannot_claim() {
+        let pts = order_points(vec![
+            point(0.5, false, [0.31, 2.0, 1.0, 3.0]),
+            point(0.25, true, [0.332, 1.944, 1.2, 3.145]),
+        ])
+        .unwrap();
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(t.contains("| 0.25 | 3 | 200 | yes | 0.332 | 1.944 | 1.200 | 3.145 |"), "{t}");
+        assert!(t.contains("| 0.5 | 6 | 200 | no | *0.310* | *2.000* | *1.000* | *3.000* |"), "{t}");
+        assert!(t.contains("| paper | 12 | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
+        assert!(t.contains("| ⟨z_p⟩/H | – | – (1 steady scale; needs 3) | – | 0.31 |"), "{t}");
+    }
+
+    #[test]
+    fn bad_studies_are_refused_with_the_runs_named() {
+        let e = order_points(vec![point(0.5, true, [0.3; 4]), point(0.5, true, [0.3; 4])]).unwrap_err();
+        assert!(e.to_string().contains("are both at scale 0.5"), "{e}");
+        let dir = std::env::temp_dir().join(format!("slurry-resolution-{}", std::process::id()));
+        let (a, b) = (dir.join("a"), dir.join("b"));
+        std::fs::create_dir_all(&a).unwrap();
+        std::fs::create_dir_all(&b).unwrap();
+        std::fs::write(a.join("statistics.json"), r#"{"case": "pbt-ld2", "scale": 0.25, "steady": true}"#)
+            .unwrap();
+        std::fs::write(b.join("statistics.json"), r#"{"case": "disk-ld2", "scale": 0.5, "steady": true}"#)
+            .unwrap();
+        let e = write_resolution(&[a.clone(), b.clone()], None).unwrap_err();
+        assert!(e.to_string().contains("is disk-ld2 but") && e.to_string().contains("one case"), "{e}");
+        let e = write_resolution(&[dir.join("missing")], None).unwrap_err();
+        assert!(format!("{e:#}").contains("statistics.json"), "{e:#}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
