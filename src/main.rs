@@ -1,10 +1,10 @@
 //! The `slurry` command line.
 //!
 //! ```text
-//! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume]
+//! slurry run CASE.toml --out DIR [--threads N] [--quiet] [--resume | --overwrite]
 //! slurry settle CASE.toml --out DIR [--speed V] [--check-every N] [--min-steps N] [--max-steps N]
 //! slurry check CASE.toml
-//! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--until-steady CAP] [--quick] [--out DIR] [--resume]
+//! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--until-steady CAP] [--quick] [--out DIR] [--resume | --overwrite]
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! slurry resolution RUN_DIR... [--out FILE]
 //! ```
@@ -622,12 +622,20 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             )
         );
     }
+    let out_of = |name: &str| match (&a.out, a.all) {
+        (Some(o), true) => o.join(name),
+        (Some(o), false) => o.clone(),
+        (None, _) => root.join(name),
+    };
+    // Every case's directory before the first is run: with --all, a later case refused after
+    // hours of the earlier ones would leave the summary unwritten.
+    if !a.resume && !a.overwrite {
+        for name in &names {
+            slurry::run::check_fresh_start(&out_of(name).join("run"), "--resume", "--overwrite")?;
+        }
+    }
     for name in &names {
-        let out = match (&a.out, a.all) {
-            (Some(o), true) => o.join(name),
-            (Some(o), false) => o.clone(),
-            (None, _) => root.join(name),
-        };
+        let out = out_of(name);
         usable_out_dir(&out)?;
         let opts = ReproduceOptions {
             scale,

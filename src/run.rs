@@ -101,27 +101,39 @@ pub struct RunOptions {
 #[error("{0}")]
 pub struct WouldOverwrite(pub String);
 
-/// Refuses to start a run afresh in `dir` when it holds an earlier run's checkpoint
-/// (`checkpoint.h5`): such a start would replace that run's time series, particle history and
-/// checkpoint, hours of stepping, with one mistyped command. `resume` and `overwrite` name the
-/// caller's options that continue the run or accept its loss.
+/// Refuses to start a run afresh in `dir` when it holds an earlier run: its checkpoint
+/// (`checkpoint.h5`), or, for a run that wrote none (no `run.checkpoint_every`, or killed
+/// before its first), a time series with rows or a particle history. Such a start would
+/// replace that run's files, hours of stepping, with one mistyped command. `resume` and
+/// `overwrite` name the caller's options that continue the run or accept its loss.
 ///
 /// # Errors
-/// [`WouldOverwrite`], naming the checkpoint, its last time-series step where that can be read,
-/// and the two options.
+/// [`WouldOverwrite`], naming what the directory holds (the checkpoint, the time series' last
+/// step where that can be read) and the options: `resume` only where there is a checkpoint to
+/// continue from.
 pub fn check_fresh_start(dir: &Path, resume: &str, overwrite: &str) -> Result<(), WouldOverwrite> {
     let checkpoint = dir.join(files::CHECKPOINT);
-    if !checkpoint.exists() {
-        return Ok(());
+    let last = last_step(&dir.join(files::TIMESERIES));
+    if checkpoint.exists() {
+        let last = last.map(|s| format!(", time series to step {s}")).unwrap_or_default();
+        return Err(WouldOverwrite(format!(
+            "{} holds an earlier run ({}{last}): pass {resume} to continue it, or {overwrite} to \
+             start over and replace its checkpoint, time series and particle history",
+            dir.display(),
+            checkpoint.display()
+        )));
     }
-    let last = last_step(&dir.join(files::TIMESERIES))
-        .map(|s| format!(", time series to step {s}"))
-        .unwrap_or_default();
+    let particles = dir.join(files::PARTICLES_H5);
+    let held = match (last, particles.exists()) {
+        (Some(s), _) => format!("{} to step {s}", dir.join(files::TIMESERIES).display()),
+        (None, true) => particles.display().to_string(),
+        (None, false) => return Ok(()),
+    };
     Err(WouldOverwrite(format!(
-        "{} holds an earlier run ({}{last}): pass {resume} to continue it, or {overwrite} to \
-         start over and replace its checkpoint, time series and particle history",
-        dir.display(),
-        checkpoint.display()
+        "{} holds an earlier run ({held}) that wrote no checkpoint, so it cannot be continued: \
+         pass {overwrite} to start over and replace its time series and particle history, or \
+         choose another output directory",
+        dir.display()
     )))
 }
 
@@ -303,8 +315,9 @@ fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup
     }
 }
 
-/// Runs `case`, writing its output into `out_dir` (created if needed; files of a previous
-/// run there are replaced). Uses the current rayon thread pool.
+/// Runs `case`, writing its output into `out_dir` (created if needed). A directory that holds
+/// an earlier run is refused unless `opts.resume` (continue it) or `opts.overwrite` (replace
+/// its files): [`check_fresh_start`]. Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     case.check_memory().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;

@@ -179,10 +179,13 @@ pub fn prefetch<T>(p: *const T) {
 /// f₀ = f₂ − (f₁ − f₂)/((h₁/h₂)ᵖ − 1)
 /// ```
 ///
-/// `None` when the sequence is not monotone (the differences change sign), or when no `p` in
-/// the bracket fits: then no order can be claimed from these three points.
+/// `None` when the spacings do not strictly decrease to a positive finite value, when the
+/// sequence is not monotone (the differences change sign), or when no `p` in the bracket
+/// fits: then no order can be claimed from these three points.
 pub fn richardson3(h: [f64; 3], f: [f64; 3]) -> Option<(f64, f64)> {
-    assert!(h[0] > h[1] && h[1] > h[2] && h[2] > 0.0, "spacings must decrease: {h:?}");
+    if !(h[0].is_finite() && h[0] > h[1] && h[1] > h[2] && h[2] > 0.0) {
+        return None;
+    }
     let (d01, d12) = (f[0] - f[1], f[1] - f[2]);
     if d01 == 0.0 || d12 == 0.0 || d01.signum() != d12.signum() {
         return None;
@@ -219,6 +222,8 @@ mod tests {
             assert!((q - p).abs() < 1e-9 && (f0 - 2.5).abs() < 1e-9, "p {p}: got {q}, {f0}");
         }
         assert!(richardson3(h, [1.0, 2.0, 1.5]).is_none(), "non-monotone");
+        assert!(richardson3([2.0, 3.0, 4.0], [1.0, 2.0, 3.0]).is_none(), "spacings increasing");
+        assert!(richardson3([f64::INFINITY, 3.0, 2.0], [1.0, 2.0, 3.0]).is_none(), "infinite spacing");
     }
 
     #[test]

@@ -129,6 +129,19 @@ fn a_fresh_start_over_a_checkpoint_is_refused_unless_overwrite() {
     assert!(again.unwrap().status.success());
     assert_eq!(physics_rows(&a.join("timeseries.csv")).len(), 2 + 4, "the run started over");
 
+    // A run that wrote no checkpoint (none asked for, or killed before the first) is protected
+    // too: only --overwrite is offered, since there is nothing to resume from.
+    std::fs::remove_file(a.join("checkpoint.h5")).unwrap();
+    let series = std::fs::read(a.join("timeseries.csv")).unwrap();
+    let refused = run(&c, &a, false);
+    assert_eq!(refused.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&refused.stderr);
+    for needle in ["timeseries.csv to step 400", "wrote no checkpoint", "--overwrite"] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    assert!(!err.contains("--resume"), "nothing to resume from: {err}");
+    assert_eq!(std::fs::read(a.join("timeseries.csv")).unwrap(), series, "the series was touched");
+
     let both =
         Command::new(BIN).arg("run").arg(&c).arg("--out").arg(&a).args(["--resume", "--overwrite"]).output();
     assert_eq!(both.unwrap().status.code(), Some(2), "clap's usage error");

@@ -29,10 +29,14 @@ fn the_table_of_archived_runs() {
     let rows: Vec<&str> = table.lines().filter(|l| l.starts_with("| 0.")).collect();
     assert_eq!(rows.len(), 2, "{table}");
     assert!(
-        rows[0].starts_with("| 0.25 | 3 | ") && rows[0].contains("| yes | 0.332 | 1.944 | 1.200 | 3.145 |"),
+        rows[0].starts_with("| 0.25 | 3 | ")
+            && rows[0].contains("| yes | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
         "{table}"
     );
-    assert!(rows[1].starts_with("| 0.5 | 6 | ") && rows[1].contains("| no | *0.332* |"), "{table}");
+    assert!(
+        rows[1].starts_with("| 0.5 | 6 | ") && rows[1].contains("| no | not recorded | *0.332* |"),
+        "{table}"
+    );
     assert!(table.contains("– (1 steady scale; needs 3)"), "{table}");
 }
 

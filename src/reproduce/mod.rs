@@ -673,6 +673,17 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     if !opts.resume && !opts.overwrite {
         crate::run::check_fresh_start(&run_dir, "--resume", "--overwrite")?;
     }
+    if opts.overwrite && !opts.resume {
+        // The earlier run's results go with it: a new run that fails must not leave them
+        // beside its own series for `--all --summary-only` or `slurry resolution` to read.
+        for f in ["statistics.json", "statistics.h5", "report.md", "reproduce.json"] {
+            let p = opts.out.join(f);
+            if p.exists() {
+                std::fs::remove_file(&p)
+                    .with_context(|| format!("--overwrite: cannot remove {}", p.display()))?;
+            }
+        }
+    }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
     let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet)?;
     if cached && !opts.quiet {

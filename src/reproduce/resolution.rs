@@ -22,13 +22,17 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-use super::paper_case;
+use super::{check_scale, paper_case};
 use crate::io::atomic_write_bytes;
 use crate::util::richardson3;
 
 /// The statistics the study compares: `statistics.json` key and label.
 pub const QUANTITIES: [(&str, &str); 4] =
     [("mean_height", "⟨z_p⟩/H"), ("po_fluid", "Po_f"), ("po_solids", "Po_c"), ("po", "Po")];
+
+/// The smallest ratio of neighbouring scales in a study: closer scales (e.g. 0.333 and 0.3333)
+/// are the same resolution, and an order fitted across them would be noise.
+pub const MIN_SCALE_RATIO: f64 = 1.05;
 
 /// One scale of the study: one run's report.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,18 +41,36 @@ pub struct Point {
     pub dir: PathBuf,
     /// Scale `s` (1: the paper's grid).
     pub scale: f64,
-    /// Revolutions after the ramp at the report.
+    /// Revolutions at the report (NaN: not recorded).
     pub revolutions: f64,
     /// The report's steady test passed.
     pub steady: bool,
+    /// The power average's window is covered by the series (`None`: the report predates the
+    /// record).
+    pub power_covered: Option<bool>,
     /// The values of [`QUANTITIES`], in order (`None`: not in the report).
     pub values: [Option<f64>; 4],
+}
+
+impl Point {
+    /// Quantity `q`'s value where it counts as a point of the study: the run is steady and,
+    /// for the power numbers, their window is not known to have a lost stretch.
+    pub fn counted(&self, q: usize) -> Option<f64> {
+        let power = QUANTITIES[q].0 != "mean_height";
+        if self.steady && !(power && self.power_covered == Some(false)) {
+            self.values[q]
+        } else {
+            None
+        }
+    }
 }
 
 /// Reads one run's `statistics.json`: the case's name and its [`Point`].
 ///
 /// # Errors
-/// The file is missing or not a report's statistics (no `case` or `scale`).
+/// The file is missing or not a report's statistics (no `case`, `scale` or `steady`); the case
+/// is not one of the paper's; the scale is outside the reproduction's range
+/// ([`check_scale`]). Each message names the file.
 pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
     let path = dir.join("statistics.json");
     let text = std::fs::read_to_string(&path).with_context(|| {
@@ -65,14 +87,19 @@ pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
         .and_then(serde_json::Value::as_str)
         .with_context(|| format!("{}: no \"case\" (not a report's statistics)", path.display()))?
         .to_string();
-    let scale = num("scale")
-        .filter(|s| s.is_finite() && *s > 0.0)
-        .with_context(|| format!("{}: no positive \"scale\"", path.display()))?;
+    paper_case(&case).with_context(|| format!("{}: \"case\"", path.display()))?;
+    let scale = num("scale").with_context(|| format!("{}: no number \"scale\"", path.display()))?;
+    check_scale(scale)
+        .map_err(|e| anyhow::anyhow!("{}: \"scale\" {}", path.display(), e.trim_start_matches("--scale ")))?;
+    let steady = json.get("steady").and_then(serde_json::Value::as_bool).with_context(|| {
+        format!("{}: no true/false \"steady\" (not a report's statistics)", path.display())
+    })?;
     let point = Point {
         dir: dir.to_path_buf(),
         scale,
         revolutions: num("revolutions").unwrap_or(f64::NAN),
-        steady: json.get("steady").and_then(serde_json::Value::as_bool).unwrap_or(false),
+        steady,
+        power_covered: json.get("power_covered").and_then(serde_json::Value::as_bool),
         values: QUANTITIES.map(|(k, _)| num(k).filter(|v| v.is_finite())),
     };
     Ok((case, point))
@@ -81,9 +108,10 @@ pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
 /// What three or more steady points say about one quantity.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Convergence {
-    /// Fewer than three steady scales with a value: no order can be fitted.
+    /// Fewer than three scales where the quantity counts: no order can be fitted.
     TooFew(usize),
-    /// The three finest steady values are not monotone, or no order in (0.05, 8) fits them.
+    /// The three finest values are not monotone (or their scales are not strictly
+    /// increasing), or no order in (0.05, 8) fits them.
     NotMonotone,
     /// The observed order and the Richardson estimate of the limit.
     Order {
@@ -94,11 +122,13 @@ pub enum Convergence {
     },
 }
 
-/// The convergence of quantity `q` (an index into [`QUANTITIES`]) over the steady points,
-/// from the three finest. `points` sorted by increasing scale, scales distinct.
+/// The convergence of quantity `q` (an index into [`QUANTITIES`]) over the points where it
+/// counts ([`Point::counted`]), from the three finest. `points` as [`order_points`] returns
+/// them; out of order or at equal scales there is no order to claim
+/// ([`Convergence::NotMonotone`]).
 pub fn convergence(points: &[Point], q: usize) -> Convergence {
     let steady: Vec<(f64, f64)> =
-        points.iter().filter(|p| p.steady).filter_map(|p| p.values[q].map(|v| (1.0 / p.scale, v))).collect();
+        points.iter().filter_map(|p| p.counted(q).map(|v| (1.0 / p.scale, v))).collect();
     if steady.len() < 3 {
         return Convergence::TooFew(steady.len());
     }
@@ -109,19 +139,22 @@ pub fn convergence(points: &[Point], q: usize) -> Convergence {
     }
 }
 
-/// Sorts the points by scale and checks they are one study: distinct scales.
+/// Sorts the points by scale and checks they are one study: neighbouring scales at least
+/// [`MIN_SCALE_RATIO`] apart.
 ///
 /// # Errors
-/// Two runs at the same scale.
+/// Two runs at the same (or nearly the same) scale, naming both.
 pub fn order_points(mut points: Vec<Point>) -> anyhow::Result<Vec<Point>> {
     points.sort_by(|a, b| a.scale.total_cmp(&b.scale));
     for w in points.windows(2) {
-        if (w[1].scale - w[0].scale).abs() <= 1e-9 * w[1].scale {
+        if w[1].scale < MIN_SCALE_RATIO * w[0].scale {
             anyhow::bail!(
-                "{} and {} are both at scale {}: give one run per scale",
+                "{} (scale {}) and {} (scale {}) are the same resolution (neighbouring scales must \
+                 differ by a factor of at least {MIN_SCALE_RATIO}): give one run per scale",
                 w[0].dir.display(),
+                w[0].scale,
                 w[1].dir.display(),
-                w[0].scale
+                w[1].scale
             );
         }
     }
@@ -136,22 +169,19 @@ pub fn order_points(mut points: Vec<Point>) -> anyhow::Result<Vec<Point>> {
 pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     let paper = paper_case(case)?.paper()?;
     let paper_of = |key: &str| paper.values.iter().find(|v| v.key == key).and_then(|v| v.paper);
-    let cell = |v: Option<f64>, steady: bool| match (v, steady) {
-        (Some(v), true) => format!("{v:.3}"),
-        (Some(v), false) => format!("*{v:.3}*"),
-        (None, _) => "–".to_string(),
-    };
+    let fmt_scale = |s: f64| crate::util::fmt_num((s * 1e4).round() / 1e4);
     let mut s = String::new();
     let _ = writeln!(s, "# Resolution study: {case}\n");
     let _ = writeln!(
         s,
         "Each row is one run's report (`statistics.json`): ⟨z_p⟩/H over the steady test's window, \
-         the power numbers over the last 30 revolutions. *Italics*: the run is not steady, so it \
-         is listed but enters no order or limit. h = 1/s is the grid spacing in units of the \
-         paper's (d = 12 s lattice spacings).\n"
+         the power numbers over the last 30 revolutions. *Italics*: the value does not count (the \
+         run is not steady, or the power window has a lost stretch), so it is listed but enters \
+         no order or limit. h = 1/s is the grid spacing in units of the paper's (d = 12 s lattice \
+         spacings).\n"
     );
-    let mut header = "| s | d | revolutions | steady |".to_string();
-    let mut rule = "|---|---|---|---|".to_string();
+    let mut header = "| s | d | revolutions | steady | power window covered |".to_string();
+    let mut rule = "|---|---|---|---|---|".to_string();
     for (_, label) in QUANTITIES {
         header += &format!(" {label} |");
         rule += "---|";
@@ -159,38 +189,44 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     let _ = writeln!(s, "{header}\n{rule}");
     for p in points {
         let mut row = format!(
-            "| {} | {} | {:.0} | {} |",
-            crate::util::fmt_num((p.scale * 1e4).round() / 1e4),
+            "| {} | {} | {} | {} | {} |",
+            fmt_scale(p.scale),
             crate::util::fmt_num((12.0 * p.scale * 100.0).round() / 100.0),
-            p.revolutions,
-            if p.steady { "yes" } else { "no" }
+            if p.revolutions.is_finite() { format!("{:.0}", p.revolutions) } else { "–".into() },
+            if p.steady { "yes" } else { "no" },
+            match p.power_covered {
+                Some(true) => "yes",
+                Some(false) => "no",
+                None => "not recorded",
+            }
         );
-        for v in p.values {
-            row += &format!(" {} |", cell(v, p.steady));
+        for (q, v) in p.values.iter().enumerate() {
+            row += &match (v, p.counted(q).is_some()) {
+                (Some(v), true) => format!(" {v:.3} |"),
+                (Some(v), false) => format!(" *{v:.3}* |"),
+                (None, _) => " – |".to_string(),
+            };
         }
         let _ = writeln!(s, "{row}");
     }
-    let mut row = "| paper | 12 | | |".to_string();
+    let mut row = "| paper | 12 | | | |".to_string();
     for (key, _) in QUANTITIES {
         row += &format!(" {} |", paper_of(key).map_or("–".to_string(), |v| format!("{v}")));
     }
     let _ = writeln!(s, "{row}");
 
     let _ = writeln!(s, "\n## Convergence\n");
-    let _ = writeln!(s, "| quantity | change between neighbouring steady scales | observed order p | Richardson limit f₀ | paper |");
+    let _ = writeln!(
+        s,
+        "| quantity | change between neighbouring counted scales | observed order p | Richardson limit f₀ | paper |"
+    );
     let _ = writeln!(s, "|---|---|---|---|---|");
     for (q, (key, label)) in QUANTITIES.iter().enumerate() {
-        let steady: Vec<&Point> = points.iter().filter(|p| p.steady && p.values[q].is_some()).collect();
-        let changes = steady
+        let counted: Vec<(f64, f64)> =
+            points.iter().filter_map(|p| p.counted(q).map(|v| (p.scale, v))).collect();
+        let changes = counted
             .windows(2)
-            .map(|w| {
-                format!(
-                    "{:+.3} (s {} → {})",
-                    w[1].values[q].unwrap_or(f64::NAN) - w[0].values[q].unwrap_or(f64::NAN),
-                    crate::util::fmt_num((w[0].scale * 1e4).round() / 1e4),
-                    crate::util::fmt_num((w[1].scale * 1e4).round() / 1e4)
-                )
-            })
+            .map(|w| format!("{:+.3} (s {} → {})", w[1].1 - w[0].1, fmt_scale(w[0].0), fmt_scale(w[1].0)))
             .collect::<Vec<_>>();
         let (order, limit) = match convergence(points, q) {
             Convergence::TooFew(n) => {
@@ -208,12 +244,7 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     }
     let _ = writeln!(s, "\nRuns:\n");
     for p in points {
-        let _ = writeln!(
-            s,
-            "- s = {}: `{}`",
-            crate::util::fmt_num((p.scale * 1e4).round() / 1e4),
-            p.dir.display()
-        );
+        let _ = writeln!(s, "- s = {}: `{}`", fmt_scale(p.scale), p.dir.display());
     }
     Ok(s)
 }
@@ -263,6 +294,7 @@ mod tests {
             scale,
             revolutions: 200.0,
             steady,
+            power_covered: None,
             values: values.map(Some),
         }
     }
@@ -300,16 +332,24 @@ mod tests {
         ])
         .unwrap();
         let t = table("pbt-ld2", &pts).unwrap();
-        assert!(t.contains("| 0.25 | 3 | 200 | yes | 0.332 | 1.944 | 1.200 | 3.145 |"), "{t}");
-        assert!(t.contains("| 0.5 | 6 | 200 | no | *0.310* | *2.000* | *1.000* | *3.000* |"), "{t}");
-        assert!(t.contains("| paper | 12 | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
+        assert!(t.contains("| 0.25 | 3 | 200 | yes | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"), "{t}");
+        assert!(
+            t.contains("| 0.5 | 6 | 200 | no | not recorded | *0.310* | *2.000* | *1.000* | *3.000* |"),
+            "{t}"
+        );
+        assert!(t.contains("| paper | 12 | | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
         assert!(t.contains("| ⟨z_p⟩/H | – | – (1 steady scale; needs 3) | – | 0.31 |"), "{t}");
     }
 
     #[test]
     fn bad_studies_are_refused_with_the_runs_named() {
         let e = order_points(vec![point(0.5, true, [0.3; 4]), point(0.5, true, [0.3; 4])]).unwrap_err();
-        assert!(e.to_string().contains("are both at scale 0.5"), "{e}");
+        assert!(
+            e.to_string().contains("s0.5 (scale 0.5) and s0.5 (scale 0.5) are the same resolution"),
+            "{e}"
+        );
+        let e = order_points(vec![point(0.3333, true, [0.3; 4]), point(0.333, true, [0.3; 4])]).unwrap_err();
+        assert!(e.to_string().contains("s0.333 (scale 0.333) and s0.3333 (scale 0.3333)"), "{e}");
         let dir = std::env::temp_dir().join(format!("slurry-resolution-{}", std::process::id()));
         let (a, b) = (dir.join("a"), dir.join("b"));
         std::fs::create_dir_all(&a).unwrap();
@@ -319,9 +359,56 @@ mod tests {
         std::fs::write(b.join("statistics.json"), r#"{"case": "disk-ld2", "scale": 0.5, "steady": true}"#)
             .unwrap();
         let e = write_resolution(&[a.clone(), b.clone()], None).unwrap_err();
-        assert!(e.to_string().contains("is disk-ld2 but") && e.to_string().contains("one case"), "{e}");
+        let e = e.to_string();
+        assert!(e.contains(&format!("{} is disk-ld2 but {} is pbt-ld2", b.display(), a.display())), "{e}");
+        assert!(e.contains("one case"), "{e}");
         let e = write_resolution(&[dir.join("missing")], None).unwrap_err();
         assert!(format!("{e:#}").contains("statistics.json"), "{e:#}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_power_window_with_a_lost_stretch_does_not_count() {
+        let f = |s: f64| 0.30 + 0.02 * (1.0f64 / s).powf(1.5);
+        let mut pts: Vec<Point> =
+            [0.25, 1.0 / 3.0, 0.5].iter().map(|&s| point(s, true, [f(s), f(s), f(s), f(s)])).collect();
+        pts[2].power_covered = Some(false);
+        assert!(matches!(convergence(&pts, 0), Convergence::Order { .. }), "⟨z_p⟩/H still counts");
+        for q in 1..4 {
+            assert_eq!(convergence(&pts, q), Convergence::TooFew(2), "quantity {q}");
+        }
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(t.contains("| 0.5 | 6 | 200 | yes | no | 0.357 | *0.357* | *0.357* | *0.357* |"), "{t}");
+        // Out of order, the fit claims nothing (and does not panic).
+        pts[2].power_covered = None;
+        pts.swap(0, 2);
+        assert_eq!(convergence(&pts, 0), Convergence::NotMonotone);
+    }
+
+    #[test]
+    fn a_report_that_is_not_one_is_refused_naming_the_file_key_and_value() {
+        let dir = std::env::temp_dir().join(format!("slurry-resolution-keys-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("statistics.json");
+        for (json, needles) in [
+            (
+                r#"{"case": "pbt-ld2", "scale": 0.1, "steady": true}"#,
+                &["\"scale\" 0.1: allowed 0.25 ≤ s ≤ 1"][..],
+            ),
+            (r#"{"case": "pbt-ld2", "scale": 0.5}"#, &["no true/false \"steady\""][..]),
+            (
+                r#"{"case": "pbt-ld3", "scale": 0.5, "steady": true}"#,
+                &["\"case\"", "unknown case 'pbt-ld3'"][..],
+            ),
+            (r#"{"scale": 0.5, "steady": true}"#, &["no \"case\""][..]),
+        ] {
+            std::fs::write(&file, json).unwrap();
+            let e = format!("{:#}", read_point(&dir).unwrap_err());
+            assert!(e.contains(&file.display().to_string()), "{e}");
+            for n in needles {
+                assert!(e.contains(n), "`{n}` not in: {e}");
+            }
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -85,6 +85,8 @@ fn num(json: &serde_json::Value, key: &str) -> Option<f64> {
 pub struct Findings {
     /// The report's verdict.
     pub steady: bool,
+    /// The run's scale `s` (NaN: not recorded): cases are compared only at equal scales.
+    pub scale: f64,
     /// `⟨z_p⟩/H` over the steady test's window.
     pub mean_height: f64,
     /// Mean angle between the cylinder axis and the vertical, all particles (degrees; random
@@ -126,6 +128,7 @@ impl Findings {
         let above: f64 = r.volume_fraction.iter().filter(|p| p.1 > 0.5).map(|p| p.0).sum();
         Findings {
             steady: r.json.get("steady").and_then(serde_json::Value::as_bool).unwrap_or(false),
+            scale: num(&r.json, "scale").unwrap_or(f64::NAN),
             mean_height: num(&r.json, "mean_height").unwrap_or(f64::NAN),
             phi_all: mean_phi(&r.orientation_all),
             phi_mobile: mean_phi(&r.orientation_mobile),
@@ -143,6 +146,11 @@ impl Findings {
 /// the disk's solids below it, so a tenth is generous.
 pub const FEW_ABOVE: f64 = 0.10;
 
+/// Two steady ⟨z_p⟩/H closer than this are the same for the findings: twice the largest
+/// difference between two realisations of pbt-ld2 at s = 1/4 over a 10-revolution window
+/// (0.0025; `reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200`).
+pub const SAME_HEIGHT: f64 = 0.005;
+
 /// The paper's five qualitative findings (its Results and Conclusions), each checked on the
 /// **steady** cases given as `(impeller, ℓ/d, findings)`: a line per finding, saying
 /// "confirmed", "not confirmed" or "not tested" and the numbers that show it.
@@ -159,7 +167,11 @@ pub const FEW_ABOVE: f64 = 0.10;
 ///    less than with the PBT at the same ℓ/d. Lower than the PBT's alone is reported as such,
 ///    not as confirmed.
 /// 5. The disk suspends less than the PBT ("the disk shows lower ⟨z_p⟩/H levels than the
-///    PBT"): `⟨z_p⟩/H` lower with the disk at each ℓ/d where both are steady.
+///    PBT"): `⟨z_p⟩/H` lower with the disk by more than [`SAME_HEIGHT`] at each ℓ/d where both
+///    are steady.
+///
+/// Findings 4 and 5 pair a disk case with the PBT case of the same ℓ/d at the same scale; a
+/// pair with a value missing is not tested.
 pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
     let steady: Vec<&(&str, f64, Findings)> = cases.iter().filter(|c| c.2.steady).collect();
     let of = |imp: &str| {
@@ -256,20 +268,23 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
     ));
 
     // 4.
+    let partner = |d: &(&str, f64, Findings)| {
+        of("pbt").into_iter().find(|p| p.1 == d.1 && p.2.scale == d.2.scale).map(|p| p.2)
+    };
     let pairs: Vec<String> = of("disk")
         .iter()
         .filter_map(|d| {
-            let p = of("pbt").into_iter().find(|p| p.1 == d.1)?;
+            let p = partner(d).filter(|p| p.above_impeller.is_finite() && d.2.above_impeller.is_finite())?;
             Some(format!(
                 "{} at ℓ/d = {}: {:.1} % of the solids above mid-height with the disk, {:.1} % with the PBT",
-                match (d.2.above_impeller < p.2.above_impeller, d.2.above_impeller < FEW_ABOVE) {
+                match (d.2.above_impeller < p.above_impeller, d.2.above_impeller < FEW_ABOVE) {
                     (true, true) => "confirmed",
                     (true, false) => "lower than with the PBT, but not few",
                     (false, _) => "not confirmed",
                 },
                 d.1,
                 100.0 * d.2.above_impeller,
-                100.0 * p.2.above_impeller
+                100.0 * p.above_impeller
             ))
         })
         .collect();
@@ -283,13 +298,20 @@ pub fn verdicts(cases: &[(&str, f64, Findings)]) -> Vec<String> {
     let pairs: Vec<String> = of("disk")
         .iter()
         .filter_map(|d| {
-            let p = of("pbt").into_iter().find(|p| p.1 == d.1)?;
+            let p = partner(d).filter(|p| p.mean_height.is_finite() && d.2.mean_height.is_finite())?;
+            let below = p.mean_height - d.2.mean_height;
             Some(format!(
                 "{} at ℓ/d = {}: ⟨z_p⟩/H {:.3} with the disk, {:.3} with the PBT",
-                if d.2.mean_height < p.2.mean_height { "confirmed" } else { "not confirmed" },
+                if below > SAME_HEIGHT {
+                    "confirmed".to_string()
+                } else if below.abs() <= SAME_HEIGHT {
+                    format!("not confirmed (the same within {SAME_HEIGHT})")
+                } else {
+                    "not confirmed".to_string()
+                },
                 d.1,
                 d.2.mean_height,
-                p.2.mean_height
+                p.mean_height
             ))
         })
         .collect();
@@ -544,6 +566,7 @@ mod tests {
     ) -> Findings {
         Findings {
             steady,
+            scale: 0.25,
             mean_height,
             phi_all,
             phi_mobile: phi_all - 6.0,
@@ -596,26 +619,41 @@ mod tests {
         );
         assert!(!v[4].contains("not confirmed"), "{}", v[4]);
 
-        // The disk cases of the archive at s = 1/4 (2026-11-26): fewer solids above the disk
-        // than above the PBT, but a quarter of them, not the paper's "virtual absence"; and
-        // not lower than the PBT at ℓ/d = 2.
-        let disk2 = f(true, 0.334, 64.3, 0.131, 35.0, 0.268);
-        let disk4 = f(true, 0.327, 65.7, 0.329, 16.0, 0.253);
+        // The disk cases of the archive at s = 1/4 (2026-11-26, both at 130 revolutions):
+        // fewer solids above the disk than above the PBT, but a quarter of them, not the
+        // paper's "virtual absence"; and not lower than the PBT at ℓ/d = 2.
+        let disk2 = f(true, 0.3345, 64.3, 0.131, 35.0, 0.268);
+        let disk4 = f(true, 0.3341, 65.5, 0.328, 16.0, 0.259);
         let few = f(true, 0.2, 60.0, 0.3, 40.0, 0.05);
         let v = verdicts(&[("pbt", 2.0, ld2), ("pbt", 4.0, ld4), ("disk", 2.0, disk2), ("disk", 4.0, disk4)]);
         assert!(v[3].contains("lower than with the PBT, but not few at ℓ/d = 2: 26.8 %"), "{}", v[3]);
-        assert!(v[3].contains("lower than with the PBT, but not few at ℓ/d = 4: 25.3 %"), "{}", v[3]);
+        assert!(v[3].contains("lower than with the PBT, but not few at ℓ/d = 4: 25.9 %"), "{}", v[3]);
         assert!(
-            v[4].contains("not confirmed at ℓ/d = 2: ⟨z_p⟩/H 0.334 with the disk, 0.332 with the PBT"),
+            v[4].contains(
+                "not confirmed (the same within 0.005) at ℓ/d = 2: ⟨z_p⟩/H 0.335 with the disk, 0.332 with the PBT"
+            ),
             "{}",
             v[4]
         );
         assert!(
-            v[4].contains("; confirmed at ℓ/d = 4: ⟨z_p⟩/H 0.327 with the disk, 0.374 with the PBT"),
+            v[4].contains("; confirmed at ℓ/d = 4: ⟨z_p⟩/H 0.334 with the disk, 0.374 with the PBT"),
             "{}",
             v[4]
         );
         let v = verdicts(&[("pbt", 2.0, ld2), ("disk", 2.0, few)]);
         assert!(v[3].contains("confirmed at ℓ/d = 2: 5.0 %") && !v[3].contains("not"), "{}", v[3]);
+        assert!(v[4].starts_with("The disk suspends less than the PBT: confirmed at ℓ/d = 2"), "{}", v[4]);
+
+        // Higher by more than SAME_HEIGHT: plainly not confirmed. Pairs at different scales,
+        // or with a value missing, are not compared.
+        let high = f(true, 0.36, 60.0, 0.3, 40.0, 0.3);
+        let v = verdicts(&[("pbt", 2.0, ld2), ("disk", 2.0, high)]);
+        assert!(v[4].contains(": not confirmed at ℓ/d = 2: ⟨z_p⟩/H 0.360"), "{}", v[4]);
+        let half = Findings { scale: 0.5, ..high };
+        let v = verdicts(&[("pbt", 2.0, ld2), ("disk", 2.0, half)]);
+        assert!(v[3].contains("not tested") && v[4].contains("not tested"), "{v:?}");
+        let missing = Findings { mean_height: f64::NAN, above_impeller: f64::NAN, ..high };
+        let v = verdicts(&[("pbt", 2.0, ld2), ("disk", 2.0, missing)]);
+        assert!(v[3].contains("not tested") && v[4].contains("not tested"), "{v:?}");
     }
 }

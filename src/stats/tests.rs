@@ -116,9 +116,16 @@ fn a_hole_in_the_window_is_not_coverage() {
     assert!(t.steady && t.window_revs_available == 20.0, "{}", t.reason);
     let p = power_averages(&early.iter().map(|&r| (r, 2.0, 1.0)).collect::<Vec<_>>(), 30.0).unwrap();
     assert!(p.covered, "{p:?}");
-    // Holes of up to 5 % of the window (one revolution of 20) still count as coverage.
-    let small = rows(&|r| !(90.0 < r && r < 90.95));
+    // Holes of up to 5 % of the window (one revolution of 20) still count as coverage: a gap
+    // between samples 90.0 and 91.0 is 1.0 revolution, exactly 5 %.
+    let small = rows(&|r| !(90.0 < r && r < 91.0));
     assert!(steady_state(&small.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01).steady);
+    // A hole inside the window, samples on both sides of it: not covered either.
+    let inner = rows(&|r| !(85.0 < r && r < 95.0));
+    let t = steady_state(&inner.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01);
+    assert!(!t.steady && t.reason.contains("no samples from revolution 85.000 to 95.000"), "{}", t.reason);
+    let p = power_averages(&inner.iter().map(|&r| (r, 2.0, 1.0)).collect::<Vec<_>>(), 30.0).unwrap();
+    assert!(!p.covered, "{p:?}");
 }
 
 fn cylinder(d: f64, l: f64) -> ParticleProperties {
