@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# archive.sh RUN_OUT DEST : copy a finished reproduction (the --out directory of `slurry
+# reproduce`) into the checkout's archive, e.g. reproduce/CASE/runs/DATE-sSCALE/: manifest,
+# report, statistics, reproduce.json, the run's summary.json and timeseries.csv, and the PNG
+# figures (each checked under 300 KB). Fields, particle histories and checkpoints stay out of
+# git. Write the archive's MANIFEST.md by hand: what the run shows, its sessions, its host.
+set -eu
+if [ $# -ne 2 ]; then sed -n '2,6p' "$0"; exit 2; fi
+src=$1 dest=$2
+for f in manifest.json report.md reproduce.json statistics.json statistics.h5 run/summary.json run/timeseries.csv; do
+  [ -f "$src/$f" ] || { echo "archive.sh: $src/$f is missing (not a finished reproduction?)" >&2; exit 1; }
+done
+for p in "$src"/*.png; do
+  s=$(stat -c %s "$p")
+  if [ "$s" -gt 300000 ]; then echo "archive.sh: $p is $s bytes, over 300 KB" >&2; exit 1; fi
+done
+mkdir -p "$dest"
+for f in manifest.json report.md reproduce.json statistics.json statistics.h5; do cp "$src/$f" "$dest/"; done
+cp "$src/run/summary.json" "$src/run/timeseries.csv" "$dest/"
+cp "$src"/*.png "$dest/"
+ls -la "$dest"
