@@ -409,9 +409,9 @@ pub fn write_all(
     let mean_h = mean_over_last(&revs, &zs, STEADY_REVOLUTIONS);
     let value_of = |key: &str| match key {
         "mean_height" => Some((mean_h, steady.window_revs_available.min(STEADY_REVOLUTIONS))),
-        "po_fluid" => Some((power.po_fluid, power.to_rev - power.from_rev)),
-        "po_solids" => Some((power.po_solids, power.to_rev - power.from_rev)),
-        "po" => Some((power.po, power.to_rev - power.from_rev)),
+        "po_fluid" => Some((power.po_fluid, power.revs_covered)),
+        "po_solids" => Some((power.po_solids, power.revs_covered)),
+        "po" => Some((power.po, power.revs_covered)),
         _ => None,
     };
     let mut comparison = Vec::new();

@@ -297,6 +297,10 @@ pub struct PowerAverages {
     /// Whether the series spans the whole requested window without a hole longer than
     /// [`HOLE_FRACTION`] of it (else the average covers less).
     pub covered: bool,
+    /// The revolutions the samples cover: `to_rev − from_rev`, less every gap between two
+    /// consecutive samples longer than [`HOLE_FRACTION`] of the window (what the report's
+    /// table gives as the averaging window).
+    pub revs_covered: f64,
 }
 
 /// Time averages of the power numbers `Po ≡ 2πNΓ/(ρ N³ D⁵)` (Table 2) over the last
@@ -315,6 +319,8 @@ pub fn power_averages(series: &[(f64, f64, f64)], last_revs: f64) -> Result<Powe
     let po_solids = w.iter().map(|s| s.2).sum::<f64>() / n;
     let po = w.iter().map(|s| s.1 + s.2).sum::<f64>() / n;
     let var = w.iter().map(|s| (s.1 + s.2 - po).powi(2)).sum::<f64>() / n;
+    let hole = hole_in_window(series.iter().map(|s| s.0), cutoff, last_revs);
+    let gaps: f64 = w.windows(2).map(|p| p[1].0 - p[0].0).filter(|&g| g > HOLE_FRACTION * last_revs).sum();
     Ok(PowerAverages {
         po_fluid,
         po_solids,
@@ -323,8 +329,8 @@ pub fn power_averages(series: &[(f64, f64, f64)], last_revs: f64) -> Result<Powe
         from_rev: w[0].0,
         to_rev: last.0,
         samples: w.len(),
-        covered: last.0 - first.0 >= last_revs * (1.0 - REV_EPS)
-            && hole_in_window(series.iter().map(|s| s.0), cutoff, last_revs).is_none(),
+        covered: last.0 - first.0 >= last_revs * (1.0 - REV_EPS) && hole.is_none(),
+        revs_covered: last.0 - w[0].0 - gaps,
     })
 }
 

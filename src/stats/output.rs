@@ -17,7 +17,8 @@
 //! `drift`, `tolerance`, `steady` (0/1), `reason`); `volume_fraction`, `kinetic_energy` and
 //! `orientation` — the averaging window (`from_rev`, `to_rev`, `frames`), the bin width, and
 //! for `orientation` the sample counts and `mobile_z_over_h`; `power` — the averages
-//! (`po_fluid`, `po_solids`, `po`, `po_std`, `from_rev`, `to_rev`, `samples`, `covered`)
+//! (`po_fluid`, `po_solids`, `po`, `po_std`, `from_rev`, `to_rev`, `revs_covered`, `samples`,
+//! `covered`)
 //! when there is a power series.
 
 use std::path::Path;
@@ -175,6 +176,7 @@ pub fn write_stats_h5(path: &Path, stats: &Stats) -> Result<(), StatsError> {
                 ("po_std", p.po_std),
                 ("from_rev", p.from_rev),
                 ("to_rev", p.to_rev),
+                ("revs_covered", p.revs_covered),
             ] {
                 attr_f64(&g, name, v)?;
             }

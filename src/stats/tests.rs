@@ -55,7 +55,7 @@ fn power_averages_over_the_last_revolutions() {
         })
         .collect();
     let p = power_averages(&series, 30.0).unwrap();
-    assert_eq!((p.samples, p.from_rev, p.to_rev, p.covered), (61, 20.0, 50.0, true));
+    assert_eq!((p.samples, p.from_rev, p.to_rev, p.covered, p.revs_covered), (61, 20.0, 50.0, true, 30.0));
     let solids = 0.5 + 0.1 / 61.0;
     assert!((p.po_fluid - 2.0).abs() < 1e-14);
     assert!((p.po_solids - solids).abs() < 1e-14);
@@ -110,6 +110,7 @@ fn a_hole_in_the_window_is_not_coverage() {
     let power: Vec<(f64, f64, f64)> = lost.iter().map(|&r| (r, 2.0, 1.0)).collect();
     let p = power_averages(&power, 30.0).unwrap();
     assert!(!p.covered && (p.from_rev - 87.5).abs() < 1e-9, "{p:?}");
+    assert!((p.revs_covered - 12.5).abs() < 1e-9, "{p:?}");
     // The same hole before both windows: covered, steady.
     let early = rows(&|r| !(0.15 < r && r < 60.0));
     let t = steady_state(&early.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01);
@@ -125,7 +126,7 @@ fn a_hole_in_the_window_is_not_coverage() {
     let t = steady_state(&inner.iter().map(|&r| (r, 0.3)).collect::<Vec<_>>(), 20.0, 0.01);
     assert!(!t.steady && t.reason.contains("no samples from revolution 85.000 to 95.000"), "{}", t.reason);
     let p = power_averages(&inner.iter().map(|&r| (r, 2.0, 1.0)).collect::<Vec<_>>(), 30.0).unwrap();
-    assert!(!p.covered, "{p:?}");
+    assert!(!p.covered && (p.revs_covered - 20.0).abs() < 1e-9, "the window less its hole: {p:?}");
 }
 
 fn cylinder(d: f64, l: f64) -> ParticleProperties {
