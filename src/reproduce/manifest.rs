@@ -8,14 +8,12 @@
 //! `restarts = sessions − 1`, and a session without an end was killed. `wall_time_s` sums the
 //! sessions that ended.
 //!
-//! **Revision.** The build's git revision is what `SLURRY_GIT_REVISION` says at run time
-//! (`cargo xtask reproduce` sets it from the checkout it has just built), else the revision of
-//! the checkout the binary was built from, read with `git` at run time and marked
-//! `" (checkout at run time)"` (right when the binary is current, which `cargo run` ensures),
-//! else `"unknown"`.
+//! **Revision.** The build's git revision: what `SLURRY_GIT_REVISION` says at run time (an
+//! override, for a packager), else the revision `build.rs` embedded when the binary was built
+//! (`git describe --always --dirty`, so a build of uncommitted sources says `-dirty`), else
+//! `"unknown"` (built outside a git checkout).
 
 use std::path::Path;
-use std::process::Command;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
@@ -180,13 +178,10 @@ pub fn git_revision() -> String {
     if let Some(r) = std::env::var("SLURRY_GIT_REVISION").ok().filter(|r| !r.trim().is_empty()) {
         return r.trim().to_string();
     }
-    Command::new("git")
-        .args(["-C", env!("CARGO_MANIFEST_DIR"), "describe", "--always", "--dirty", "--abbrev=12"])
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| format!("{} (checkout at run time)", String::from_utf8_lossy(&o.stdout).trim()))
-        .unwrap_or_else(|| "unknown".into())
+    match env!("SLURRY_BUILD_REVISION") {
+        "" => "unknown".into(),
+        r => r.to_string(),
+    }
 }
 
 /// The CPU model of `/proc/cpuinfo` and the hardware threads, e.g. `"AMD EPYC 9R14, 2

@@ -151,22 +151,7 @@ fn reproduce(root: &Path, args: &[String]) -> Step {
     c.current_dir(root)
         .args(["run", "--release", "-p", "slurry", "--bin", "slurry", "--", "reproduce"])
         .args(args);
-    // The revision `cargo run` is about to build, for the run's manifest.json.
-    if let Some(rev) = git_revision(root) {
-        c.env("SLURRY_GIT_REVISION", rev);
-    }
     run("reproduce", c)
-}
-
-/// `git describe --always --dirty` of the checkout at `root`, if git can tell.
-fn git_revision(root: &Path) -> Option<String> {
-    let o = Command::new("git")
-        .current_dir(root)
-        .args(["describe", "--always", "--dirty", "--abbrev=12"])
-        .output()
-        .ok()?;
-    let rev = String::from_utf8_lossy(&o.stdout).trim().to_string();
-    (o.status.success() && !rev.is_empty()).then_some(rev)
 }
 
 /// Whether `pkg-config` is present and finds hdf5.
