@@ -14,6 +14,7 @@
 //! | `fig07_kinetic_energy_{disk,pbt}` | k* of linear (and rotational) motion against z/H |
 //! | `fig08_orientation_{disk,pbt}` | pdf of φ, all particles, with sin φ |
 //! | `fig09_orientation_mobile_{disk,pbt}` | pdf of φ for z_p > 0.2H, with sin φ |
+//! | `fig03_disk_ld{4,1}_rev{010,090}.png`, `fig04_pbt_…` | the panels of the paper's four-panel Figures 3 (disk) and 4 (PBT): ℓ/d = 4 and 1, 10 and 90 revolutions after the start, copied from each case's report ([`snapshot_panels`]) |
 
 use std::f64::consts::PI;
 use std::fmt::Write as _;
@@ -429,9 +430,11 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
         );
     }
 
-    md.push_str(
-        "\n## Figures\n\nAs the paper draws them: the three aspect ratios of one impeller on one plot.\n\n",
-    );
+    md.push_str("\n## Figures\n\n");
+    for impeller in ["disk", "pbt"] {
+        md.push_str(&snapshot_panels(root, &out, impeller)?);
+    }
+    md.push_str("As the paper draws them: the three aspect ratios of one impeller on one plot.\n\n");
     for impeller in ["disk", "pbt"] {
         let runs: Vec<(String, &CaseResult)> = cases
             .iter()
@@ -450,6 +453,44 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
     let path = out.join("summary.md");
     atomic_write_bytes(&path, md.as_bytes()).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(path)
+}
+
+/// The paper's four-panel Figure 3 (disk) or 4 (PBT), as a Markdown table of the panels:
+/// ℓ/d = 4 (top) and 1 (bottom), 10 and 90 revolutions after the start (left, right). Each
+/// panel is the case report's own `fig03_midplane_rev010.png` (…`rev090`, `fig04_…` for the
+/// PBT), copied into `out` as `fig03_disk_ld4_rev010.png` etc., so that the summary stands on
+/// its own wherever it is copied; a panel the case does not have (not run, or its run did not
+/// reach that revolution) is named as missing. Nothing when neither case has a panel.
+fn snapshot_panels(root: &Path, out: &Path, impeller: &str) -> anyhow::Result<String> {
+    let (figure, label) = if impeller == "disk" { (3, "disk") } else { (4, "pitched-blade turbine") };
+    let mut rows = String::new();
+    let mut found = 0;
+    for ld in [4, 1] {
+        let case = format!("{impeller}-ld{ld}");
+        let _ = write!(rows, "| ℓ/d = {ld} |");
+        for rev in [10, 90] {
+            let src = root.join(&case).join(format!("fig{figure:02}_midplane_rev{rev:03}.png"));
+            if !src.exists() {
+                let _ = write!(rows, " not drawn: `{case}` has no snapshot at {rev} revolutions |");
+                continue;
+            }
+            let name = format!("fig{figure:02}_{impeller}_ld{ld}_rev{rev:03}.png");
+            let bytes = std::fs::read(&src).with_context(|| format!("cannot read {}", src.display()))?;
+            let dest = out.join(&name);
+            atomic_write_bytes(&dest, &bytes).with_context(|| format!("cannot write {}", dest.display()))?;
+            let _ = write!(rows, " ![{case}, {rev} revolutions]({name}) |");
+            found += 1;
+        }
+        rows.push('\n');
+    }
+    if found == 0 {
+        return Ok(String::new());
+    }
+    Ok(format!(
+        "**Figure {figure} ({label}): instantaneous realisations, |u|/v_tip on the vertical mid-plane with the \
+         cylinders' sections; ℓ/d = 4 (top) and 1 (bottom), 10 and 90 revolutions after the start (left, right)**\n\n\
+         | | 10 revolutions | 90 revolutions |\n|---|---|---|\n{rows}\n"
+    ))
 }
 
 /// Figures 5–9 of one impeller with a series per case; returns `(stem, caption)`.
@@ -554,7 +595,31 @@ fn figures(
 
 #[cfg(test)]
 mod tests {
-    use super::{verdicts, Findings};
+    use super::{snapshot_panels, verdicts, Findings};
+
+    #[test]
+    fn snapshot_panels_copy_what_exists_and_name_what_is_missing() {
+        let root = tempfile::tempdir().unwrap();
+        let out = root.path().join("summary");
+        std::fs::create_dir_all(&out).unwrap();
+        // No case has a panel: nothing.
+        assert_eq!(snapshot_panels(root.path(), &out, "disk").unwrap(), "");
+        // disk-ld4 has both, disk-ld1 only the one at 10 revolutions.
+        for (case, rev) in [("disk-ld4", 10), ("disk-ld4", 90), ("disk-ld1", 10)] {
+            let dir = root.path().join(case);
+            std::fs::create_dir_all(&dir).unwrap();
+            std::fs::write(dir.join(format!("fig03_midplane_rev{rev:03}.png")), format!("{case} {rev}"))
+                .unwrap();
+        }
+        let md = snapshot_panels(root.path(), &out, "disk").unwrap();
+        assert!(md.starts_with("**Figure 3 (disk)"), "{md}");
+        assert!(md.contains("| ℓ/d = 4 | ![disk-ld4, 10 revolutions](fig03_disk_ld4_rev010.png) | ![disk-ld4, 90 revolutions](fig03_disk_ld4_rev090.png) |"), "{md}");
+        assert!(md.contains("| ℓ/d = 1 | ![disk-ld1, 10 revolutions](fig03_disk_ld1_rev010.png) | not drawn: `disk-ld1` has no snapshot at 90 revolutions |"), "{md}");
+        assert_eq!(std::fs::read_to_string(out.join("fig03_disk_ld4_rev090.png")).unwrap(), "disk-ld4 90");
+        assert!(!out.join("fig03_disk_ld1_rev090.png").exists());
+        // The PBT's panels are Figure 4's, from the reports' fig04 files.
+        assert_eq!(snapshot_panels(root.path(), &out, "pbt").unwrap(), "");
+    }
 
     fn f(
         steady: bool,
