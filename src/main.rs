@@ -7,6 +7,7 @@
 //! slurry reproduce CASE|--all [--scale S] [--revolutions R] [--until-steady CAP] [--quick] [--out DIR] [--resume | --overwrite]
 //! slurry bench [--sizes 128,256x256x240] [--threads 1,2] [--json FILE]
 //! slurry resolution RUN_DIR... [--out FILE]
+//! slurry status OUT...
 //! ```
 //!
 //! Exit status: 0 on success; 2 for bad input (case file, command line); 1 for numerical
@@ -48,6 +49,17 @@ enum Command {
     /// The resolution study of one case: its reproductions at several scales side by side, with
     /// the observed order and Richardson estimate from the three finest steady ones.
     Resolution(ResolutionArgs),
+    /// Where a reproduction stands, from its files (while it runs, or its archive): progress,
+    /// speed and time left, ⟨z_p⟩/H by 10 revolutions, the steady test now, the power numbers.
+    Status(StatusArgs),
+}
+
+/// `slurry status`.
+#[derive(Args, Debug)]
+struct StatusArgs {
+    /// Output directories of `slurry reproduce` (its `--out`), or archives of them.
+    #[arg(required = true, value_name = "OUT")]
+    dirs: Vec<PathBuf>,
 }
 
 /// `slurry resolution`.
@@ -165,6 +177,26 @@ fn cmd_resolution(a: ResolutionArgs) -> anyhow::Result<()> {
             .with_context(|| format!("cannot write {}", out.display()))?;
     }
     Ok(())
+}
+
+/// `slurry status`: one block per directory; one that cannot be read is bad input (exit
+/// status 2), after the others are printed.
+fn cmd_status(a: StatusArgs) -> anyhow::Result<()> {
+    let mut bad = Vec::new();
+    for (k, dir) in a.dirs.iter().enumerate() {
+        if k > 0 {
+            println!();
+        }
+        match slurry::reproduce::status::status(dir) {
+            Ok(text) => print!("{text}"),
+            Err(e) => bad.push(format!("{e:#}")),
+        }
+    }
+    if bad.is_empty() {
+        Ok(())
+    } else {
+        Err(BadInput(bad.join("\n")).into())
+    }
 }
 
 /// `slurry bench`.
@@ -425,6 +457,7 @@ fn main() -> ExitCode {
         Command::Bench(a) => cmd_bench(a),
         Command::Reproduce(a) => cmd_reproduce(a),
         Command::Resolution(a) => cmd_resolution(a),
+        Command::Status(a) => cmd_status(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -60,6 +60,7 @@ pub mod bench;
 pub mod manifest;
 pub mod report;
 pub mod resolution;
+pub mod status;
 pub mod summary;
 
 use std::fmt::Write as _;

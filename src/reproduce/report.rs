@@ -129,6 +129,11 @@ pub struct TimeSeries {
     pub po_fluid: Vec<f64>,
     /// `Po_c`.
     pub po_solids: Vec<f64>,
+    /// The step of each row.
+    pub steps: Vec<f64>,
+    /// The throughput of the block of steps each row closes (`mlups`; NaN where the file has
+    /// no such column).
+    pub mlups: Vec<f64>,
 }
 
 /// Reads the impeller and particle columns of `timeseries.csv` (a box of height `h = nz`).
@@ -137,6 +142,14 @@ pub struct TimeSeries {
 /// A missing file or column, or a number that does not parse.
 pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Result<TimeSeries> {
     let text = std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse_timeseries(&text, path, h, steps_per_rev)
+}
+
+/// [`read_timeseries`] of the text of `timeseries.csv` (`path` names it in errors).
+///
+/// # Errors
+/// A missing column, or a number that does not parse.
+pub fn parse_timeseries(text: &str, path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Result<TimeSeries> {
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let col = |name: &str| {
@@ -147,6 +160,7 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
     };
     let (is, ia, iz) = (col("step")?, col("impeller_angle")?, col("particle_mean_z")?);
     let (if_, ic) = (col("po_fluid")?, col("po_solids")?);
+    let im = col("mlups").ok();
     let mut timeseries = TimeSeries::default();
     for (k, line) in lines.enumerate() {
         let f: Vec<&str> = line.split(',').collect();
@@ -155,11 +169,14 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
                 anyhow::anyhow!("{}: row {}: column {i} is not a number", path.display(), k + 2)
             })
         };
-        timeseries.time.push(num(is)? / steps_per_rev);
+        let step = num(is)?;
+        timeseries.steps.push(step);
+        timeseries.time.push(step / steps_per_rev);
         timeseries.revolutions.push(num(ia)? / (2.0 * PI));
         timeseries.mean_height.push((num(iz)? + 0.5) / h);
         timeseries.po_fluid.push(num(if_)?);
         timeseries.po_solids.push(num(ic)?);
+        timeseries.mlups.push(im.and_then(|i| f.get(i)).and_then(|s| s.parse().ok()).unwrap_or(f64::NAN));
     }
     Ok(timeseries)
 }
