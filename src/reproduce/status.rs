@@ -5,12 +5,14 @@
 //! (`OUT/run/timeseries.csv` of a run directory, or `OUT/timeseries.csv` of an archive; a last
 //! row still being written is left out), it prints:
 //!
-//! - the progress: the last step written against the target, in revolutions after the ramp,
-//!   and, while the manifest says "running", how long ago the last row was written (a run
-//!   killed without a word stays "running" in its manifest: an old last row tells);
-//! - the speed, the median of the last [`SPEED_ROWS`] rows' MLUPS as ms per step, and the time
-//!   left to the target at that speed (a run continued by `--until-steady` may go on past it,
-//!   in legs of 10 revolutions);
+//! - the progress: the last step written against the end of the leg the run is in, in
+//!   revolutions after the ramp (`--until-steady CAP` goes on past `--revolutions` in legs of
+//!   [`STEADY_CHECK_REVOLUTIONS`] up to `CAP`, as `reproduce` does), and, while the manifest says
+//!   "running", how long ago the last row was written (a run killed without a word stays
+//!   "running" in its manifest: an old last row tells);
+//! - the speed, the median of the last [`SPEED_ROWS`] rows' MLUPS as ms per step, and the
+//!   stepping time left to the end of the leg at that speed (checkpoints, output and further
+//!   legs not counted);
 //! - `⟨z_p⟩/H` over 10-revolution windows after the ramp (`t N` from the impeller's start, the
 //!   axis of the report);
 //! - the report's steady test ([`stats::steady_state`] over [`report::STEADY_REVOLUTIONS`],
@@ -18,7 +20,7 @@
 //!   the report applies it to the particle frames, which are written at the same steps, so
 //!   this is the verdict the report would give now, not a substitute for it;
 //! - `Po_f`, `Po_c` and `Po` over the last [`report::POWER_REVOLUTIONS`] revolutions after the
-//!   ramp.
+//!   ramp ([`stats::power_averages`], the report's average, with its coverage).
 //!
 //! It only reads: a running reproduction is not disturbed.
 
@@ -30,7 +32,7 @@ use anyhow::Context;
 
 use super::manifest::{utc, Manifest};
 use super::report::{self, TimeSeries};
-use super::{paper_case, scale_case, schedule};
+use super::{paper_case, scale_case, schedule, STEADY_CHECK_REVOLUTIONS};
 use crate::stats;
 
 /// Rows of the time series whose MLUPS the speed is the median of.
@@ -42,39 +44,78 @@ pub const WINDOW_REVOLUTIONS: f64 = 10.0;
 /// The status of the reproduction in `out` (module docs), as text.
 ///
 /// # Errors
-/// No readable `manifest.json` in `out`, an unknown case or scale in it, or no readable time
-/// series.
+/// No `manifest.json` in `out`, or one that does not parse or names an unknown case, a scale
+/// or revolutions out of range (the message names the file and the value); no readable time
+/// series (a running reproduction without one yet has no rows).
 pub fn status(out: &Path) -> anyhow::Result<String> {
-    let manifest = Manifest::read(out).ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: no readable manifest.json: not the output directory of `slurry reproduce`, nor its archive",
+    let file = out.join(super::manifest::FILE);
+    if !file.exists() {
+        anyhow::bail!(
+            "{}: no manifest.json: not the output directory of `slurry reproduce`, nor its archive (a \
+             reproduction just started writes it once its bed is made)",
             out.display()
-        )
-    })?;
-    let case = scale_case(&paper_case(&manifest.case)?.case()?, manifest.scale).with_context(|| {
-        format!("{}: case {} at scale {}", out.join("manifest.json").display(), manifest.case, manifest.scale)
-    })?;
-    let sched = schedule(&case, manifest.revolutions)?;
+        );
+    }
+    let text = std::fs::read_to_string(&file).with_context(|| format!("cannot read {}", file.display()))?;
+    let manifest: Manifest = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a reproduction's manifest", file.display()))?;
+    let case = paper_case(&manifest.case)
+        .and_then(|c| c.case())
+        .and_then(|c| scale_case(&c, manifest.scale))
+        .with_context(|| {
+            format!("{}: case = {:?}, scale = {}", file.display(), manifest.case, manifest.scale)
+        })?;
+    // The leg the run is in (or ended in): `--until-steady` goes on past `revolutions` in legs
+    // of STEADY_CHECK_REVOLUTIONS up to its cap (the rule of `reproduce`).
+    let first = schedule(&case, manifest.revolutions)
+        .with_context(|| format!("{}: revolutions = {}", file.display(), manifest.revolutions))?;
     let grid = case.grid();
     let nodes = (grid.nx * grid.ny * grid.nz) as f64;
     let path = timeseries_path(out);
-    let text = std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(_) if manifest.status == "running" => String::new(),
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", path.display())),
+    };
     let ts =
-        report::parse_timeseries(complete_rows(&text), &path, grid.nz as f64, sched.steps_per_revolution)?;
+        report::parse_timeseries(complete_rows(&text), &path, grid.nz as f64, first.steps_per_revolution)?;
+    let done = ts.time.last().map_or(0.0, |t| t - first.ramp_steps as f64 / first.steps_per_revolution);
+    let mut target = manifest.revolutions;
+    if let Some(cap) = manifest.until_steady {
+        while target < cap && target < done - 1e-9 {
+            target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
+        }
+    }
+    let leg = schedule(&case, target)?;
     let age = std::fs::metadata(&path)
         .and_then(|m| m.modified())
         .ok()
         .and_then(|t| SystemTime::now().duration_since(t).ok())
         .map(|d| d.as_secs_f64());
-    Ok(describe(
-        &manifest,
-        &ts,
-        sched.steps_per_revolution,
-        sched.ramp_steps as f64,
+    let view = View {
+        steps_per_rev: first.steps_per_revolution,
+        ramp_steps: first.ramp_steps as f64,
+        target_revolutions: target,
+        target_steps: leg.steps,
         nodes,
-        (grid.nx, grid.ny, grid.nz),
+        grid: (grid.nx, grid.ny, grid.nz),
         age,
-    ))
+    };
+    Ok(describe(&manifest, &ts, &view))
+}
+
+/// What [`describe`] needs besides the manifest and the series.
+struct View {
+    steps_per_rev: f64,
+    ramp_steps: f64,
+    /// Revolutions after the ramp of the leg the run is in (or ended in).
+    target_revolutions: f64,
+    /// Steps of that leg's end.
+    target_steps: u64,
+    nodes: f64,
+    grid: (usize, usize, usize),
+    /// Seconds since the time series was last written.
+    age: Option<f64>,
 }
 
 /// `OUT/run/timeseries.csv` (a run directory) if it exists, else `OUT/timeseries.csv` (an
@@ -107,25 +148,16 @@ fn duration(s: f64) -> String {
     }
 }
 
-/// The status text from what was read (module docs); `age`: seconds since the time series was
-/// last written.
-fn describe(
-    m: &Manifest,
-    ts: &TimeSeries,
-    steps_per_rev: f64,
-    ramp_steps: f64,
-    nodes: f64,
-    (nx, ny, nz): (usize, usize, usize),
-    age: Option<f64>,
-) -> String {
+/// The status text from what was read (module docs).
+fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
     let mut s = String::new();
+    let (nx, ny, nz) = v.grid;
     let _ = writeln!(
         s,
-        "{} at scale {} ({nx} × {ny} × {nz} nodes, {steps_per_rev:.0} steps per revolution): {}",
-        m.case, m.scale, m.status
+        "{} at scale {} ({nx} × {ny} × {nz} nodes, {:.0} steps per revolution): {}",
+        m.case, m.scale, v.steps_per_rev, m.status
     );
-    let (first, last) = (m.sessions.first(), m.sessions.last());
-    if let (Some(first), Some(last)) = (first, last) {
+    if let (Some(first), Some(last)) = (m.sessions.first(), m.sessions.last()) {
         let _ = writeln!(
             s,
             "sessions: {} (restarts {}), the first started {}, the last {} ({}), binary {}",
@@ -141,50 +173,55 @@ fn describe(
             last.git_revision
         );
     }
-    let ramp_end = ramp_steps / steps_per_rev;
-    let Some(&t_last) = ts.time.last() else {
+    let ramp_end = v.ramp_steps / v.steps_per_rev;
+    let (Some(&t_last), Some(&step)) = (ts.time.last(), ts.steps.last()) else {
         let _ = writeln!(s, "the time series has no rows yet");
         return s;
     };
-    let step = ts.steps.last().copied().unwrap_or(0.0);
-    let until = m
-        .until_steady
-        .map_or(String::new(), |c| format!("; `--until-steady` continues in legs of 10 up to {c}"));
+    let done = (t_last - ramp_end).max(0.0);
+    let legs = match m.until_steady {
+        Some(cap) if v.target_revolutions > m.revolutions => format!(
+            "; `--until-steady {cap}`: past the first {} revolutions, in legs of {STEADY_CHECK_REVOLUTIONS:.0}",
+            m.revolutions
+        ),
+        Some(cap) => format!("; `--until-steady {cap}` may go on in legs of {STEADY_CHECK_REVOLUTIONS:.0}"),
+        None => String::new(),
+    };
+    let finished = m.status == "finished";
     let _ = writeln!(
         s,
-        "progress: step {step:.0} of {} ({:.1} of {} revolutions after the ramp{until}){}",
-        m.steps,
-        (t_last - ramp_end).max(0.0),
-        m.revolutions,
-        // Only a running run's file age says something (an archive's is its copy's).
-        age.filter(|_| m.status == "running")
+        "progress: step {step:.0} of {} ({done:.1} of {} revolutions after the ramp{legs}){}",
+        v.target_steps,
+        v.target_revolutions,
+        // Only a running run's file age says something (an archive's is its copy's); a run
+        // killed without a word stays "running" in its manifest, and an old last row tells.
+        v.age
+            .filter(|_| m.status == "running")
             .map_or(String::new(), |a| format!("; last row written {} ago", duration(a)))
     );
     let recent: Vec<f64> =
-        ts.mlups.iter().rev().take(SPEED_ROWS).copied().filter(|v| v.is_finite() && *v > 0.0).collect();
+        ts.mlups.iter().rev().take(SPEED_ROWS).copied().filter(|x| x.is_finite() && *x > 0.0).collect();
     if !recent.is_empty() {
         let mut sorted = recent.clone();
         sorted.sort_by(f64::total_cmp);
-        let mlups = sorted[sorted.len() / 2];
-        let ms = nodes / (mlups * 1e6) * 1e3;
-        let left = (m.steps as f64 - step).max(0.0) * ms * 1e-3;
+        let n = sorted.len();
+        let mlups = if n % 2 == 1 { sorted[n / 2] } else { 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]) };
+        let ms = v.nodes / (mlups * 1e6) * 1e3;
+        let left = (v.target_steps as f64 - step).max(0.0) * ms * 1e-3;
         let now = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-        let eta = if left > 0.0 {
+        let eta = if left > 0.0 && !finished {
             format!(
-                "; at that speed the target is {} of stepping away (about {})",
+                "; at that speed the end of this leg is {} of stepping away (about {})",
                 duration(left),
                 utc(now + left as u64)
             )
         } else {
             String::new()
         };
-        let _ = writeln!(
-            s,
-            "speed: {ms:.1} ms per step ({mlups:.1} MLUPS, median of the last {} rows){eta}",
-            recent.len()
-        );
+        let _ =
+            writeln!(s, "speed: {ms:.1} ms per step ({mlups:.1} MLUPS, median of the last {n} rows){eta}");
     }
-    // ⟨z_p⟩/H by windows after the ramp.
+    // ⟨z_p⟩/H by windows after the ramp, [lo, hi) but the last one closed at its end.
     let mut windows = Vec::new();
     let mut lo = ramp_end;
     while lo < t_last {
@@ -193,11 +230,11 @@ fn describe(
             .time
             .iter()
             .zip(&ts.mean_height)
-            .filter(|(t, _)| **t >= lo && **t < hi)
+            .filter(|(t, _)| **t >= lo && (**t < hi || (**t == t_last && t_last <= hi + 1e-9)))
             .map(|(_, z)| *z)
             .collect();
         if !v.is_empty() {
-            let partial = if t_last < hi { "*" } else { "" };
+            let partial = if t_last < hi - 1e-9 { "*" } else { "" };
             windows.push(format!("{lo:.0}–{hi:.0}{partial} {:.3}", v.iter().sum::<f64>() / v.len() as f64));
         }
         lo = hi;
@@ -205,29 +242,31 @@ fn describe(
     if !windows.is_empty() {
         let _ = writeln!(
             s,
-            "⟨z_p⟩/H by 10 revolutions (t N; * the window is not complete): {}",
+            "⟨z_p⟩/H by {WINDOW_REVOLUTIONS:.0} revolutions (t N; * the window is not complete): {}",
             windows.join(", ")
         );
     }
     let series: Vec<(f64, f64)> = ts.time.iter().copied().zip(ts.mean_height.iter().copied()).collect();
     let st = stats::steady_state(&series, report::STEADY_REVOLUTIONS, report::STEADY_DRIFT);
     let _ = writeln!(s, "steady test on the time series now: {}", st.reason);
-    let from = (t_last - report::POWER_REVOLUTIONS).max(ramp_end);
-    let po: Vec<(f64, f64)> = ts
+    // The power numbers after the ramp, averaged as the report does.
+    let po: Vec<(f64, f64, f64)> = ts
         .time
         .iter()
         .zip(ts.po_fluid.iter().zip(&ts.po_solids))
-        .filter(|(t, _)| **t >= from)
-        .map(|(_, (f, c))| (*f, *c))
+        .filter(|(t, _)| **t >= ramp_end)
+        .map(|(t, (f, c))| (*t, *f, *c))
         .collect();
-    if !po.is_empty() && t_last > ramp_end {
-        let n = po.len() as f64;
-        let (f, c) = (po.iter().map(|p| p.0).sum::<f64>() / n, po.iter().map(|p| p.1).sum::<f64>() / n);
+    if let Ok(p) = stats::power_averages(&po, report::POWER_REVOLUTIONS) {
+        let cover = if p.covered {
+            String::new()
+        } else {
+            format!(", covering {:.1} of the {} revolutions", p.revs_covered, report::POWER_REVOLUTIONS)
+        };
         let _ = writeln!(
             s,
-            "power numbers over t N {from:.1}–{t_last:.1} ({} rows): Po_f {f:.3}, Po_c {c:.3}, Po {:.3}",
-            po.len(),
-            f + c
+            "power numbers over t N {:.1}–{:.1} ({} rows{cover}): Po_f {:.3}, Po_c {:.3}, Po {:.3}",
+            p.from_rev, p.to_rev, p.samples, p.po_fluid, p.po_solids, p.po
         );
     }
     s
@@ -269,10 +308,41 @@ mod tests {
         assert!(text.contains("Po_f 1.944, Po_c 1.200"), "{text}");
     }
 
+    /// The archived disk-ld1 run: `--revolutions 100 --until-steady 200`, steady at 130.
+    #[test]
+    fn status_of_a_run_that_went_on_in_legs() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("reproduce/disk-ld1/runs/2026-11-26-s0.25-r130");
+        let text = status(&dir).unwrap();
+        assert!(
+            text.contains(
+                "progress: step 131000 of 131000 (130.0 of 130 revolutions after the ramp; `--until-steady 200`: \
+                 past the first 100 revolutions, in legs of 10)"
+            ),
+            "{text}"
+        );
+        assert!(!text.contains("stepping away"), "{text}");
+        assert!(text.contains("121–131 0.308"), "{text}");
+        assert!(text.contains("Po_f 2.140, Po_c 1.247, Po 3.387"), "{text}");
+    }
+
+    #[test]
+    fn a_bad_manifest_is_named_with_its_value() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("reproduce/disk-ld1/runs/2026-11-26-s0.25-r130");
+        let text = std::fs::read_to_string(src.join("manifest.json")).unwrap();
+        std::fs::write(dir.path().join("manifest.json"), text.replace("\"disk-ld1\"", "\"disk-ld3\""))
+            .unwrap();
+        let e = format!("{:#}", status(dir.path()).unwrap_err());
+        assert!(e.contains("manifest.json: case = \"disk-ld3\"") && e.contains("unknown case"), "{e}");
+        std::fs::write(dir.path().join("manifest.json"), "{").unwrap();
+        let e = format!("{:#}", status(dir.path()).unwrap_err());
+        assert!(e.contains("not a reproduction's manifest"), "{e}");
+    }
+
     #[test]
     fn a_directory_without_a_manifest_is_named() {
         let dir = tempfile::tempdir().unwrap();
         let e = status(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("no readable manifest.json"), "{e}");
+        assert!(e.contains("no manifest.json"), "{e}");
     }
 }
