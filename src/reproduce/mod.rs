@@ -677,12 +677,21 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     if opts.overwrite && !opts.resume {
         // The earlier run's results go with it: a new run that fails must not leave them
         // beside its own series for `--all --summary-only` or `slurry resolution` to read.
-        for f in ["statistics.json", "statistics.h5", "report.md", "reproduce.json"] {
-            let p = opts.out.join(f);
-            if p.exists() {
-                std::fs::remove_file(&p)
-                    .with_context(|| format!("--overwrite: cannot remove {}", p.display()))?;
-            }
+        let mut old: Vec<PathBuf> = ["statistics.json", "statistics.h5", "report.md", "reproduce.json"]
+            .iter()
+            .map(|f| opts.out.join(f))
+            .collect();
+        // The Figure 3/4 snapshots too: a shorter new run would leave the old one's beside its
+        // own (the summary copies them).
+        if let Ok(dir) = std::fs::read_dir(&opts.out) {
+            old.extend(dir.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("fig03_midplane") || n.starts_with("fig04_midplane"))
+            }));
+        }
+        for p in old.iter().filter(|p| p.exists()) {
+            std::fs::remove_file(p).with_context(|| format!("--overwrite: cannot remove {}", p.display()))?;
         }
     }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;

@@ -9,7 +9,7 @@
 //! | `statistics.json` | the scalar results and the comparison with the paper |
 //! | `midplane.h5`, `midplane.xmf` | the last step's velocity on the vertical plane through the axis (ParaView) |
 //! | `fig03_midplane` or `fig04_midplane` `.png/.svg` | the paper's Figure 3 (disk) or 4 (PBT): \|u\|/v_tip on that plane with the cylinders' sections, at the end |
-//! | `fig04_midplane_rev010`, `…_rev090` | the same at 10 and 90 revolutions after the impeller's start, as in the paper (from the run's `fields-STEP.h5` snapshots, when the run reached them) |
+//! | `fig03_midplane_rev010`, `…_rev090` (disk) or `fig04_…` (PBT) | the same at 10 and 90 revolutions after the impeller's start, as in the paper (from the run's `fields-STEP.h5` snapshots, when the run reached them) |
 //! | `fig05_mean_height` | ⟨z_p⟩/H against revolutions |
 //! | `fig06_volume_fraction` | time-averaged solids volume fraction against z/H |
 //! | `fig07_kinetic_energy` | k* of linear and rotational motion against z/H |

@@ -432,7 +432,8 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
 
     md.push_str("\n## Figures\n\n");
     for impeller in ["disk", "pbt"] {
-        md.push_str(&snapshot_panels(root, &out, impeller)?);
+        let has_report = |case: &str| cases.iter().any(|(n, _, r)| *n == case && r.is_some());
+        md.push_str(&snapshot_panels(root, &out, impeller, has_report)?);
     }
     md.push_str("As the paper draws them: the three aspect ratios of one impeller on one plot.\n\n");
     for impeller in ["disk", "pbt"] {
@@ -459,9 +460,16 @@ pub fn write_summary(root: &Path) -> anyhow::Result<PathBuf> {
 /// ℓ/d = 4 (top) and 1 (bottom), 10 and 90 revolutions after the start (left, right). Each
 /// panel is the case report's own `fig03_midplane_rev010.png` (…`rev090`, `fig04_…` for the
 /// PBT), copied into `out` as `fig03_disk_ld4_rev010.png` etc., so that the summary stands on
-/// its own wherever it is copied; a panel the case does not have (not run, or its run did not
-/// reach that revolution) is named as missing. Nothing when neither case has a panel.
-fn snapshot_panels(root: &Path, out: &Path, impeller: &str) -> anyhow::Result<String> {
+/// its own wherever it is copied; a panel the case does not have (no report, or its run did not
+/// reach that revolution) is named as missing, and an earlier summary's copy of it is removed.
+/// `has_report(case)`: whether the case's report was read (a case listed as not run shows no
+/// panels, whatever PNG is left in its directory). Nothing when neither case has a panel.
+fn snapshot_panels(
+    root: &Path,
+    out: &Path,
+    impeller: &str,
+    has_report: impl Fn(&str) -> bool,
+) -> anyhow::Result<String> {
     let (figure, label) = if impeller == "disk" { (3, "disk") } else { (4, "pitched-blade turbine") };
     let mut rows = String::new();
     let mut found = 0;
@@ -470,11 +478,16 @@ fn snapshot_panels(root: &Path, out: &Path, impeller: &str) -> anyhow::Result<St
         let _ = write!(rows, "| ℓ/d = {ld} |");
         for rev in [10, 90] {
             let src = root.join(&case).join(format!("fig{figure:02}_midplane_rev{rev:03}.png"));
-            if !src.exists() {
+            let name = format!("fig{figure:02}_{impeller}_ld{ld}_rev{rev:03}.png");
+            if !has_report(&case) || !src.exists() {
+                let stale = out.join(&name);
+                if stale.exists() {
+                    std::fs::remove_file(&stale)
+                        .with_context(|| format!("cannot remove {}", stale.display()))?;
+                }
                 let _ = write!(rows, " not drawn: `{case}` has no snapshot at {rev} revolutions |");
                 continue;
             }
-            let name = format!("fig{figure:02}_{impeller}_ld{ld}_rev{rev:03}.png");
             let bytes = std::fs::read(&src).with_context(|| format!("cannot read {}", src.display()))?;
             let dest = out.join(&name);
             atomic_write_bytes(&dest, &bytes).with_context(|| format!("cannot write {}", dest.display()))?;
@@ -602,23 +615,41 @@ mod tests {
         let root = tempfile::tempdir().unwrap();
         let out = root.path().join("summary");
         std::fs::create_dir_all(&out).unwrap();
+        let all = |_: &str| true;
         // No case has a panel: nothing.
-        assert_eq!(snapshot_panels(root.path(), &out, "disk").unwrap(), "");
-        // disk-ld4 has both, disk-ld1 only the one at 10 revolutions.
-        for (case, rev) in [("disk-ld4", 10), ("disk-ld4", 90), ("disk-ld1", 10)] {
+        assert_eq!(snapshot_panels(root.path(), &out, "disk", all).unwrap(), "");
+        // disk-ld4 has both, disk-ld1 only the one at 10 revolutions; the PBT's are Figure 4's
+        // (`fig04_…`; a `fig03_…` beside them is not taken).
+        for (case, file) in [
+            ("disk-ld4", "fig03_midplane_rev010.png"),
+            ("disk-ld4", "fig03_midplane_rev090.png"),
+            ("disk-ld1", "fig03_midplane_rev010.png"),
+            ("pbt-ld4", "fig04_midplane_rev010.png"),
+            ("pbt-ld4", "fig03_midplane_rev090.png"),
+        ] {
             let dir = root.path().join(case);
             std::fs::create_dir_all(&dir).unwrap();
-            std::fs::write(dir.join(format!("fig03_midplane_rev{rev:03}.png")), format!("{case} {rev}"))
-                .unwrap();
+            std::fs::write(dir.join(file), format!("{case} {file}")).unwrap();
         }
-        let md = snapshot_panels(root.path(), &out, "disk").unwrap();
+        // An earlier summary's copy of a panel that is gone now.
+        std::fs::write(out.join("fig03_disk_ld1_rev090.png"), "stale").unwrap();
+        let md = snapshot_panels(root.path(), &out, "disk", all).unwrap();
         assert!(md.starts_with("**Figure 3 (disk)"), "{md}");
         assert!(md.contains("| ℓ/d = 4 | ![disk-ld4, 10 revolutions](fig03_disk_ld4_rev010.png) | ![disk-ld4, 90 revolutions](fig03_disk_ld4_rev090.png) |"), "{md}");
         assert!(md.contains("| ℓ/d = 1 | ![disk-ld1, 10 revolutions](fig03_disk_ld1_rev010.png) | not drawn: `disk-ld1` has no snapshot at 90 revolutions |"), "{md}");
-        assert_eq!(std::fs::read_to_string(out.join("fig03_disk_ld4_rev090.png")).unwrap(), "disk-ld4 90");
-        assert!(!out.join("fig03_disk_ld1_rev090.png").exists());
-        // The PBT's panels are Figure 4's, from the reports' fig04 files.
-        assert_eq!(snapshot_panels(root.path(), &out, "pbt").unwrap(), "");
+        assert_eq!(
+            std::fs::read_to_string(out.join("fig03_disk_ld4_rev090.png")).unwrap(),
+            "disk-ld4 fig03_midplane_rev090.png"
+        );
+        assert!(!out.join("fig03_disk_ld1_rev090.png").exists(), "the stale copy is removed");
+        let md = snapshot_panels(root.path(), &out, "pbt", all).unwrap();
+        assert!(md.starts_with("**Figure 4 (pitched-blade turbine)"), "{md}");
+        assert!(md.contains("| ℓ/d = 4 | ![pbt-ld4, 10 revolutions](fig04_pbt_ld4_rev010.png) | not drawn: `pbt-ld4` has no snapshot at 90 revolutions |"), "{md}");
+        assert!(md.contains("| ℓ/d = 1 | not drawn: `pbt-ld1` has no snapshot at 10 revolutions |"), "{md}");
+        // A case without a report shows no panel, whatever PNG its directory holds.
+        let md = snapshot_panels(root.path(), &out, "disk", |c: &str| c != "disk-ld4").unwrap();
+        assert!(md.contains("| ℓ/d = 4 | not drawn: `disk-ld4` has no snapshot at 10 revolutions |"), "{md}");
+        assert!(!out.join("fig03_disk_ld4_rev010.png").exists());
     }
 
     fn f(
