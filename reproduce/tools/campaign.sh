@@ -8,14 +8,17 @@
 # - Started again, it resumes a case that has a checkpoint (`--resume`) and skips one that has
 #   finished (RUNS/CASE-sSCALE/DONE); it never starts a case afresh over an earlier run (slurry
 #   refuses that itself unless --overwrite).
-# - It stops at the first failure (a Mach-limit stop, a full disk), leaving the checkpoint for a
-#   resume; the log is RUNS/CASE-sSCALE/log.txt, the campaign's own lines go to stdout.
+# - A lane stops at its first failure (a Mach-limit stop, a full disk), leaving the checkpoint
+#   for a resume, while the other lanes go on; the exit status is 1 if any lane failed. The log
+#   is RUNS/CASE-sSCALE/log.txt, the campaign's own lines go to stdout. Stopping the campaign
+#   (SIGINT or SIGTERM to this script) stops its lanes and the runs they started.
 # - BIN (default: target/release/slurry of this checkout, built if missing) is the binary; give
 #   a copy outside the checkout for a campaign that spans sessions, so that the stepping bits
 #   cannot change under it.
 #
 # - LANES (default 1): run the cases in this many concurrent lanes (cases dealt round-robin,
-#   each lane one case after another), each with nproc/LANES threads. The results do not
+#   each lane one case after another), each with cores/LANES threads (at least 1; with
+#   LANES = 1 slurry's default, all cores or RAYON_NUM_THREADS). A case named twice runs once. The results do not
 #   change (the stepping is bitwise the same for any thread count); only the throughput does.
 #   Measured 2026-11-27 on the 2-core VM (campaign paused): two 1-thread runs side by side took
 #   212.8 and 213.5 ms per step for pbt-ld2 at s = 1/2 from its bed, against 121.4 ms for one
@@ -26,21 +29,27 @@
 # Example: nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 pbt-ld2 pbt-ld4 >> ~/slurry-runs/campaign.log 2>&1 &
 #          LANES=2 nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 disk-ld1 disk-ld2 disk-ld4 pbt-ld4 >> ... &
 set -u
-if [ $# -lt 3 ]; then sed -n '2,30p' "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n '2,/^set -u/p' "$0" | sed '$d'; exit 2; fi
 runs=$1 scale=$2; shift 2
 root=$(cd "$(dirname "$0")/../.." && pwd)
 BIN=${BIN:-$root/target/release/slurry}
 if [ ! -x "$BIN" ]; then (cd "$root" && cargo build --release --bin slurry) || exit 1; fi
 mkdir -p "$runs/cache"
 LANES=${LANES:-1}
-threads=$(( $(nproc) / LANES )); [ "$threads" -ge 1 ] || threads=1
+if ! [[ $LANES =~ ^[1-9][0-9]*$ ]]; then echo "campaign.sh: LANES=$LANES: a positive integer" >&2; exit 2; fi
+threads=()
+if [ "$LANES" -gt 1 ]; then
+  cores=$(getconf _NPROCESSORS_ONLN)
+  t=$(( cores / LANES )); [ "$t" -ge 1 ] || t=1
+  threads=(--threads "$t")
+fi
 # One case: skipped if done, resumed if it has a checkpoint; non-zero on failure.
 run_case() {
   local c=$1 d=$runs/$1-s$scale revs=100 cap=200
   if [ -f "$d/DONE" ]; then echo "$(date -u +%FT%TZ) $c s$scale: done, skipped"; return 0; fi
   mkdir -p "$d"
   if [ "$c" = pbt-ld1 ]; then revs=200 cap=300; fi
-  local args=(reproduce "$c" --scale "$scale" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" --threads "$threads" --quiet)
+  local args=(reproduce "$c" --scale "$scale" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet)
   if [ -f "$d/run/run/checkpoint.h5" ]; then args+=(--resume); fi
   echo "$(date -u +%FT%TZ) $c s$scale: $BIN ${args[*]}"
   if "$BIN" "${args[@]}" >> "$d/log.txt" 2>&1; then
@@ -51,7 +60,19 @@ run_case() {
 }
 # One lane: its cases one after another, stopping at the first failure.
 lane() { for c in "$@"; do run_case "$c" || return 1; done; }
-cases=("$@") pids=()
+# Each case once, in the order given.
+cases=() pids=()
+for c in "$@"; do
+  dup=0; for k in "${cases[@]}"; do [ "$k" = "$c" ] && dup=1; done
+  [ $dup -eq 1 ] || cases+=("$c")
+done
+# Stopping the campaign stops its lanes and their runs (each lane's slurry is in its process group
+# only if job control is on, so the lanes' children are found by parent).
+stop() {
+  for p in "${pids[@]}"; do pkill -TERM -P "$p" 2>/dev/null; kill -TERM "$p" 2>/dev/null; done
+  exit 130
+}
+trap stop INT TERM
 for ((l = 0; l < LANES; l++)); do
   mine=()
   for ((i = l; i < ${#cases[@]}; i += LANES)); do mine+=("${cases[i]}"); done
