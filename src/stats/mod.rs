@@ -421,10 +421,12 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
     }
     t.steady = failed.is_empty();
     t.reason = if t.steady {
+        // The slope too: a run can pass while still creeping (disk-ld1 at s = 1/4 passed at
+        // 5e-4 per revolution), and the reader should see by how much.
         format!(
-            "steady: drift {:.3e} over the last {window_revs} revolutions ({} samples) within the tolerance \
-             {tolerance:.3e}",
-            t.drift, t.samples
+            "steady: drift {:.3e} over the last {window_revs} revolutions (slope {:.3e} per revolution, {} \
+             samples) within the tolerance {tolerance:.3e}",
+            t.drift, t.slope_per_rev, t.samples
         )
     } else {
         format!("not steady: {}", failed.join("; "))

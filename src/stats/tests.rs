@@ -78,7 +78,7 @@ fn steady_state_fits_the_window_and_names_what_failed() {
     assert!((t.slope_per_rev - 1e-4).abs() < 1e-12, "{}", t.slope_per_rev);
     assert!((t.drift - 2e-3).abs() < 1e-10);
     assert_eq!((t.samples, t.window_revs_available), (41, 20.0));
-    assert!(t.steady, "{}", t.reason);
+    assert!(t.steady && t.reason.contains("slope 1.000e-4 per revolution"), "{}", t.reason);
     let tight = steady_state(&series, 20.0, 1e-3);
     assert!(!tight.steady && tight.reason.contains("exceeds"), "{}", tight.reason);
     let short = steady_state(&series[180..], 20.0, 0.01);
