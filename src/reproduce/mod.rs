@@ -612,6 +612,20 @@ fn revolutions_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Opti
     Some(last - sched.ramp_steps as f64 / sched.steps_per_revolution)
 }
 
+/// The target, in revolutions after the ramp, of the leg a run of `revolutions` (with
+/// `--until-steady CAP`: legs of [`STEADY_CHECK_REVOLUTIONS`] after it, up to `CAP`) is in once
+/// it has done `done` revolutions: the first leg end not below `done`, or the cap. What a
+/// resume continues to, and what `slurry status` measures progress against.
+pub(crate) fn leg_target(revolutions: f64, until_steady: Option<f64>, done: f64) -> f64 {
+    let mut target = revolutions;
+    if let Some(cap) = until_steady {
+        while target < cap && target < done - 1e-9 {
+            target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
+        }
+    }
+    target
+}
+
 /// The verdict of `--until-steady` when it stops.
 fn verdict(steady: bool) -> &'static str {
     if steady {
@@ -685,9 +699,9 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         // own (the summary copies them).
         if let Ok(dir) = std::fs::read_dir(&opts.out) {
             old.extend(dir.filter_map(|e| e.ok()).map(|e| e.path()).filter(|p| {
-                p.file_name()
-                    .and_then(|n| n.to_str())
-                    .is_some_and(|n| n.starts_with("fig03_midplane") || n.starts_with("fig04_midplane"))
+                p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                    ["disk", "pbt"].iter().any(|i| n.starts_with(&report::midplane_stem(i, None)))
+                })
             }));
         }
         for p in old.iter().filter(|p| p.exists()) {
@@ -729,12 +743,10 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's
     // steady test passes or the cap is reached.
     let mut target = opts.revolutions;
-    if let (Some(cap), true) = (opts.until_steady, opts.resume) {
+    if opts.resume {
         // A resumed run skips the legs it has already passed.
         let done = revolutions_in_timeseries(&run_dir, &case, &sched).unwrap_or(0.0);
-        while target < cap && target < done - 1e-9 {
-            target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
-        }
+        target = leg_target(opts.revolutions, opts.until_steady, done);
     }
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {

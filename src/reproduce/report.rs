@@ -116,6 +116,26 @@ pub fn steady_test(case: &Case, run_dir: &Path) -> anyhow::Result<stats::SteadyT
     Ok(stats::steady_state(&stats::mean_height(&hist.frames, &tank), STEADY_REVOLUTIONS, STEADY_DRIFT))
 }
 
+/// The paper's figure of the mid-plane for an impeller: 3 for the disk, 4 for the PBT.
+pub(crate) fn midplane_figure_number(impeller: &str) -> u32 {
+    if impeller == "disk" {
+        3
+    } else {
+        4
+    }
+}
+
+/// The file stem of a run's mid-plane figure: `fig03_midplane` (disk) or `fig04_midplane`
+/// (PBT), and with `revs` its snapshot at that many revolutions (`fig03_midplane_rev010`).
+/// The report writes them; the summary and `--overwrite` find them by it.
+pub(crate) fn midplane_stem(impeller: &str, revs: Option<f64>) -> String {
+    let stem = format!("fig{:02}_midplane", midplane_figure_number(impeller));
+    match revs {
+        Some(r) => format!("{stem}_rev{r:03.0}"),
+        None => stem,
+    }
+}
+
 /// The impeller columns of `timeseries.csv` by revolution.
 #[derive(Clone, Debug, Default)]
 pub struct TimeSeries {
@@ -129,8 +149,6 @@ pub struct TimeSeries {
     pub po_fluid: Vec<f64>,
     /// `Po_c`.
     pub po_solids: Vec<f64>,
-    /// The step of each row.
-    pub steps: Vec<f64>,
     /// The throughput of the block of steps each row closes (`mlups`; NaN where the file has
     /// no such column).
     pub mlups: Vec<f64>,
@@ -169,9 +187,7 @@ pub fn parse_timeseries(text: &str, path: &Path, h: f64, steps_per_rev: f64) -> 
                 anyhow::anyhow!("{}: row {}: column {i} is not a number", path.display(), k + 2)
             })
         };
-        let step = num(is)?;
-        timeseries.steps.push(step);
-        timeseries.time.push(step / steps_per_rev);
+        timeseries.time.push(num(is)? / steps_per_rev);
         timeseries.revolutions.push(num(ia)? / (2.0 * PI));
         timeseries.mean_height.push((num(iz)? + 0.5) / h);
         timeseries.po_fluid.push(num(if_)?);
@@ -578,8 +594,8 @@ fn figures(
 
     // Figure 3 (disk) / 4 (PBT): |u|/v_tip on the mid-plane with the cylinders' sections, at
     // the end of the run and at the snapshots the run wrote (the paper's 10 and 90 revolutions).
-    let number = if paper.impeller == "disk" { 3 } else { 4 };
-    let stem = format!("fig{number:02}_midplane");
+    let number = midplane_figure_number(&paper.impeller);
+    let stem = midplane_stem(&paper.impeller, None);
     let last = hist.frames.last().expect("frames checked above");
     let plane = MidPlane { speed, nx, nz, y: plane_y };
     midplane_figure(out, &stem, &tag, tank, hist, last, &plane)?;
@@ -593,7 +609,7 @@ fn figures(
     for (step, speed) in snapshots {
         let Some(frame) = hist.frames.iter().find(|f| f.step == *step) else { continue };
         let revs = *step as f64 / tank.steps_per_rev;
-        let stem = format!("{stem}_rev{:03.0}", revs);
+        let stem = midplane_stem(&paper.impeller, Some(revs));
         midplane_figure(out, &stem, &tag, tank, hist, frame, &MidPlane { speed, ..plane })?;
         figs.push((
             stem,

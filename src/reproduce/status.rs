@@ -33,7 +33,7 @@ use anyhow::Context;
 
 use super::manifest::{utc, Manifest};
 use super::report::{self, TimeSeries};
-use super::{paper_case, scale_case, schedule, STEADY_CHECK_REVOLUTIONS};
+use super::{leg_target, paper_case, scale_case, schedule, STEADY_CHECK_REVOLUTIONS};
 use crate::stats;
 
 /// Rows of the time series whose MLUPS the speed is the median of.
@@ -66,8 +66,8 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
         .with_context(|| {
             format!("{}: case = {:?}, scale = {}", file.display(), manifest.case, manifest.scale)
         })?;
-    // The leg the run is in (or ended in): `--until-steady` goes on past `revolutions` in legs
-    // of STEADY_CHECK_REVOLUTIONS up to its cap (the rule of `reproduce`).
+    // The schedule of the first leg (steps per revolution, ramp); the leg the run is in comes
+    // from the rows done (`leg_target`, the rule of a resume).
     let first = schedule(&case, manifest.revolutions)
         .with_context(|| format!("{}: revolutions = {}", file.display(), manifest.revolutions))?;
     let grid = case.grid();
@@ -81,12 +81,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     let ts =
         report::parse_timeseries(complete_rows(&text), &path, grid.nz as f64, first.steps_per_revolution)?;
     let done = ts.time.last().map_or(0.0, |t| t - first.ramp_steps as f64 / first.steps_per_revolution);
-    let mut target = manifest.revolutions;
-    if let Some(cap) = manifest.until_steady {
-        while target < cap && target < done - 1e-9 {
-            target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
-        }
-    }
+    let target = leg_target(manifest.revolutions, manifest.until_steady, done);
     let leg = schedule(&case, target)?;
     let age = std::fs::metadata(&path)
         .and_then(|m| m.modified())
@@ -175,10 +170,11 @@ fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
         );
     }
     let ramp_end = v.ramp_steps / v.steps_per_rev;
-    let (Some(&t_last), Some(&step)) = (ts.time.last(), ts.steps.last()) else {
+    let Some(&t_last) = ts.time.last() else {
         let _ = writeln!(s, "the time series has no rows yet");
         return s;
     };
+    let step = (t_last * v.steps_per_rev).round();
     let done = (t_last - ramp_end).max(0.0);
     let legs = match m.until_steady {
         Some(cap) if v.target_revolutions > m.revolutions => format!(
@@ -234,15 +230,13 @@ fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
             .filter(|(t, _)| **t >= lo && (**t < hi || (**t == t_last && t_last <= hi + 1e-9)))
             .map(|(t, z)| (*t, *z))
             .collect();
-        if let (Some(first), Some(last)) = (w.first(), w.last()) {
+        if !w.is_empty() {
             let partial = if t_last < hi - 1e-9 { "*" } else { "" };
-            // The longest stretch without a row, the window's ends included (up to the last
-            // row for the window still being written).
-            let mut gap = (first.0 - lo).max(hi.min(t_last) - last.0);
-            for p in w.windows(2) {
-                gap = gap.max(p[1].0 - p[0].0);
-            }
-            let hole = if gap > stats::HOLE_FRACTION * WINDOW_REVOLUTIONS { "†" } else { "" };
+            // A stretch without rows, as the steady test and the power average find one; the
+            // window's end (or the last row, for the window being written) closes the last
+            // stretch, so rows lost at a window's end mark that window.
+            let ends = w.iter().map(|p| p.0).chain(std::iter::once(hi.min(t_last)));
+            let hole = if stats::hole_in_window(ends, lo, WINDOW_REVOLUTIONS).is_some() { "†" } else { "" };
             let mean = w.iter().map(|p| p.1).sum::<f64>() / w.len() as f64;
             windows.push(format!("{lo:.0}–{hi:.0}{partial}{hole} {mean:.3}"));
         }

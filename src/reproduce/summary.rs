@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
-use super::{paper_case, CASES};
+use super::{paper_case, report, CASES};
 use crate::io::atomic_write_bytes;
 use crate::plot::{self, LegendPosition, LinePlot, Series, SeriesStyle};
 
@@ -470,14 +470,16 @@ fn snapshot_panels(
     impeller: &str,
     has_report: impl Fn(&str) -> bool,
 ) -> anyhow::Result<String> {
-    let (figure, label) = if impeller == "disk" { (3, "disk") } else { (4, "pitched-blade turbine") };
+    let figure = report::midplane_figure_number(impeller);
+    let label = if impeller == "disk" { "disk" } else { "pitched-blade turbine" };
     let mut rows = String::new();
     let mut found = 0;
     for ld in [4, 1] {
         let case = format!("{impeller}-ld{ld}");
         let _ = write!(rows, "| ℓ/d = {ld} |");
         for rev in [10, 90] {
-            let src = root.join(&case).join(format!("fig{figure:02}_midplane_rev{rev:03}.png"));
+            let src =
+                root.join(&case).join(format!("{}.png", report::midplane_stem(impeller, Some(rev as f64))));
             let name = format!("fig{figure:02}_{impeller}_ld{ld}_rev{rev:03}.png");
             if !has_report(&case) || !src.exists() {
                 let stale = out.join(&name);

@@ -248,7 +248,11 @@ fn largest_hole(revs: impl Iterator<Item = f64>, cutoff: f64) -> Option<(f64, f6
 
 /// Whether the window `[cutoff, last]` of length `window_revs` has a hole longer than
 /// [`HOLE_FRACTION`] of it: the hole, if so.
-fn hole_in_window(revs: impl Iterator<Item = f64>, cutoff: f64, window_revs: f64) -> Option<(f64, f64)> {
+pub(crate) fn hole_in_window(
+    revs: impl Iterator<Item = f64>,
+    cutoff: f64,
+    window_revs: f64,
+) -> Option<(f64, f64)> {
     largest_hole(revs, cutoff).filter(|(a, b)| b - a > HOLE_FRACTION * window_revs)
 }
 
