@@ -613,13 +613,14 @@ fn revolutions_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Opti
 }
 
 /// The target, in revolutions after the ramp, of the leg a run of `revolutions` (with
-/// `--until-steady CAP`: legs of [`STEADY_CHECK_REVOLUTIONS`] after it, up to `CAP`) is in once
-/// it has done `done` revolutions: the first leg end not below `done`, or the cap. What a
-/// resume continues to, and what `slurry status` measures progress against.
-pub(crate) fn leg_target(revolutions: f64, until_steady: Option<f64>, done: f64) -> f64 {
+/// `--until-steady CAP`: legs of [`STEADY_CHECK_REVOLUTIONS`] after it, up to `CAP`) is in:
+/// the first leg end `t` for which `passed(t)` is false, or the cap. A resume passes "`t`
+/// below the revolutions done" (a run that ended a leg goes on to the next); `slurry status`
+/// passes "the leg's last step below the last row's" (a finished run is in the leg it ended).
+pub(crate) fn leg_target(revolutions: f64, until_steady: Option<f64>, passed: impl Fn(f64) -> bool) -> f64 {
     let mut target = revolutions;
     if let Some(cap) = until_steady {
-        while target < cap && target < done - 1e-9 {
+        while target < cap && passed(target) {
             target = (target + STEADY_CHECK_REVOLUTIONS).min(cap);
         }
     }
@@ -746,7 +747,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     if opts.resume {
         // A resumed run skips the legs it has already passed.
         let done = revolutions_in_timeseries(&run_dir, &case, &sched).unwrap_or(0.0);
-        target = leg_target(opts.revolutions, opts.until_steady, done);
+        target = leg_target(opts.revolutions, opts.until_steady, |t| t < done - 1e-9);
     }
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {

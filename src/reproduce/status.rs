@@ -67,7 +67,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
             format!("{}: case = {:?}, scale = {}", file.display(), manifest.case, manifest.scale)
         })?;
     // The schedule of the first leg (steps per revolution, ramp); the leg the run is in comes
-    // from the rows done (`leg_target`, the rule of a resume).
+    // from the last row's step (`leg_target`).
     let first = schedule(&case, manifest.revolutions)
         .with_context(|| format!("{}: revolutions = {}", file.display(), manifest.revolutions))?;
     let grid = case.grid();
@@ -80,8 +80,12 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     };
     let ts =
         report::parse_timeseries(complete_rows(&text), &path, grid.nz as f64, first.steps_per_revolution)?;
-    let done = ts.time.last().map_or(0.0, |t| t - first.ramp_steps as f64 / first.steps_per_revolution);
-    let target = leg_target(manifest.revolutions, manifest.until_steady, done);
+    // A leg ends on the output step at or after its revolutions, so the step, not the
+    // revolutions, tells whether the last row lies beyond a leg's end.
+    let last_step = ts.time.last().map_or(0.0, |t| (t * first.steps_per_revolution).round());
+    let target = leg_target(manifest.revolutions, manifest.until_steady, |t| {
+        schedule(&case, t).is_ok_and(|s| (s.steps as f64) < last_step)
+    });
     let leg = schedule(&case, target)?;
     let age = std::fs::metadata(&path)
         .and_then(|m| m.modified())
@@ -335,6 +339,33 @@ mod tests {
             text.contains("81–91† ") && text.contains("91–101 0.") && !text.contains("91–101†"),
             "{text}"
         );
+    }
+
+    /// At s = 1/3 a revolution is 1333.3 steps, and a leg ends on the output step after its
+    /// revolutions (100.08 for 100): a run that finished there is in the leg it ended, not in
+    /// the next one (pbt-ld2 at s = 1/3 ended so on 2026-11-27, with `--until-steady 200`).
+    #[test]
+    fn a_finished_leg_at_a_fractional_revolution_is_the_last() {
+        let dir = tempfile::tempdir().unwrap();
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("reproduce/disk-ld1/runs/2026-11-26-s0.25-r130");
+        let mut m: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(src.join("manifest.json")).unwrap()).unwrap();
+        m["case"] = "pbt-ld2".into();
+        m["scale"] = 0.333333333333.into();
+        m["revolutions"] = 100.0.into();
+        m["until_steady"] = 200.0.into();
+        m["status"] = "finished".into();
+        std::fs::write(dir.path().join("manifest.json"), m.to_string()).unwrap();
+        let header = "step,time,mass,momentum_x,momentum_y,momentum_z,max_mach,particle_mean_z,\
+                      particle_max_speed,impeller_angle,impeller_omega,torque_fluid,torque_solids,\
+                      torque_walls,po_fluid,po_solids,po,mlups";
+        let rows: String = [0u64, 67386, 134772]
+            .iter()
+            .map(|s| format!("{s},{s},1,0,0,0,0.1,19.6,0,{},0,0,0,0,1.9,0.5,2.4,12\n", *s as f64 * 4.7e-3))
+            .collect();
+        std::fs::write(dir.path().join("timeseries.csv"), format!("{header}\n{rows}")).unwrap();
+        let text = status(dir.path()).unwrap();
+        assert!(text.contains("progress: step 134772 of 134772 (100.1 of 100 revolutions"), "{text}");
     }
 
     #[test]
