@@ -30,11 +30,11 @@ fn the_table_of_archived_runs() {
     assert_eq!(rows.len(), 2, "{table}");
     assert!(
         rows[0].starts_with("| 0.25 | 3 | ")
-            && rows[0].contains("| yes | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
+            && rows[0].contains("| yes | +0.0068 | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
         "{table}"
     );
     assert!(
-        rows[1].starts_with("| 0.5 | 6 | ") && rows[1].contains("| no | not recorded | *0.332* |"),
+        rows[1].starts_with("| 0.5 | 6 | ") && rows[1].contains("| no | +0.0068 | not recorded | *0.332* |"),
         "{table}"
     );
     assert!(table.contains("– (1 steady scale; needs 3)"), "{table}");

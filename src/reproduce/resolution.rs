@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 
+use super::report::{STEADY_DRIFT, STEADY_REVOLUTIONS};
 use super::{check_scale, paper_case};
 use crate::io::atomic_write_bytes;
 use crate::util::richardson3;
@@ -45,6 +46,10 @@ pub struct Point {
     pub revolutions: f64,
     /// The report's steady test passed.
     pub steady: bool,
+    /// The steady test's drift: the fitted change of ⟨z_p⟩/H over its last
+    /// [`STEADY_REVOLUTIONS`] (`None`: not recorded). Near [`STEADY_DRIFT`] a steady run's
+    /// value is still moving, and the table says so.
+    pub drift: Option<f64>,
     /// The power average's window is covered by the series (`None`: the report predates the
     /// record).
     pub power_covered: Option<bool>,
@@ -99,6 +104,7 @@ pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
         scale,
         revolutions: num("revolutions").unwrap_or(f64::NAN),
         steady,
+        drift: num("steady_drift").filter(|v| v.is_finite()),
         power_covered: json.get("power_covered").and_then(serde_json::Value::as_bool),
         values: QUANTITIES.map(|(k, _)| num(k).filter(|v| v.is_finite())),
     };
@@ -178,18 +184,24 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
          the power numbers over the last 30 revolutions. *Italics*: the value does not count (the \
          run is not steady, or the power window has a lost stretch), so it is listed but enters \
          no order or limit. h = 1/s is the grid spacing in units of the paper's (d = 12 s lattice \
-         spacings).\n"
+         spacings). Drift: the fitted change of ⟨z_p⟩/H over the steady test's last {} \
+         revolutions; the test passes up to {}, so a steady run with a drift over half of that \
+         (†) is still moving in that direction, and its value is a bound more than a limit.\n",
+        STEADY_REVOLUTIONS, STEADY_DRIFT
     );
-    let mut header = "| s | d | revolutions | steady | power window covered |".to_string();
-    let mut rule = "|---|---|---|---|---|".to_string();
+    let mut header = "| s | d | revolutions | steady | drift | power window covered |".to_string();
+    let mut rule = "|---|---|---|---|---|---|".to_string();
     for (_, label) in QUANTITIES {
         header += &format!(" {label} |");
         rule += "---|";
     }
     let _ = writeln!(s, "{header}\n{rule}");
     for p in points {
+        let drift = p.drift.map_or("–".to_string(), |d| {
+            format!("{d:+.4}{}", if d.abs() > 0.5 * STEADY_DRIFT { " †" } else { "" })
+        });
         let mut row = format!(
-            "| {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {drift} | {} |",
             fmt_scale(p.scale),
             crate::util::fmt_num((12.0 * p.scale * 100.0).round() / 100.0),
             if p.revolutions.is_finite() { format!("{:.0}", p.revolutions) } else { "–".into() },
@@ -209,7 +221,7 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
         }
         let _ = writeln!(s, "{row}");
     }
-    let mut row = "| paper | 12 | | | |".to_string();
+    let mut row = "| paper | 12 | | | | |".to_string();
     for (key, _) in QUANTITIES {
         row += &format!(" {} |", paper_of(key).map_or("–".to_string(), |v| format!("{v}")));
     }
@@ -294,6 +306,7 @@ mod tests {
             scale,
             revolutions: 200.0,
             steady,
+            drift: None,
             power_covered: None,
             values: values.map(Some),
         }
@@ -326,19 +339,30 @@ mod tests {
 
     #[test]
     fn the_table_marks_transients_and_says_what_it_cannot_claim() {
+        // s = 1/3 with the drift of the run that passed at 100 revolutions still rising
+        // (2026-11-27: 0.0119 against the tolerance 0.015): steady, counted, but marked.
+        let third = Point { drift: Some(0.0119), ..point(1.0 / 3.0, true, [0.246, 1.856, 0.444, 2.3]) };
         let pts = order_points(vec![
             point(0.5, false, [0.31, 2.0, 1.0, 3.0]),
-            point(0.25, true, [0.332, 1.944, 1.2, 3.145]),
+            third,
+            Point { drift: Some(0.0068), ..point(0.25, true, [0.332, 1.944, 1.2, 3.145]) },
         ])
         .unwrap();
         let t = table("pbt-ld2", &pts).unwrap();
-        assert!(t.contains("| 0.25 | 3 | 200 | yes | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"), "{t}");
         assert!(
-            t.contains("| 0.5 | 6 | 200 | no | not recorded | *0.310* | *2.000* | *1.000* | *3.000* |"),
+            t.contains("| 0.25 | 3 | 200 | yes | +0.0068 | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
             "{t}"
         );
-        assert!(t.contains("| paper | 12 | | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
-        assert!(t.contains("| ⟨z_p⟩/H | – | – (1 steady scale; needs 3) | – | 0.31 |"), "{t}");
+        assert!(t.contains("| 0.3333 | 4 | 200 | yes | +0.0119 † | not recorded | 0.246 |"), "{t}");
+        assert!(
+            t.contains("| 0.5 | 6 | 200 | no | – | not recorded | *0.310* | *2.000* | *1.000* | *3.000* |"),
+            "{t}"
+        );
+        assert!(t.contains("| paper | 12 | | | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
+        assert!(
+            t.contains("| ⟨z_p⟩/H | -0.086 (s 0.25 → 0.3333) | – (2 steady scales; needs 3) | – | 0.31 |"),
+            "{t}"
+        );
     }
 
     #[test]
@@ -378,7 +402,7 @@ mod tests {
             assert_eq!(convergence(&pts, q), Convergence::TooFew(2), "quantity {q}");
         }
         let t = table("pbt-ld2", &pts).unwrap();
-        assert!(t.contains("| 0.5 | 6 | 200 | yes | no | 0.357 | *0.357* | *0.357* | *0.357* |"), "{t}");
+        assert!(t.contains("| 0.5 | 6 | 200 | yes | – | no | 0.357 | *0.357* | *0.357* | *0.357* |"), "{t}");
         // Out of order, the fit claims nothing (and does not panic).
         pts[2].power_covered = None;
         pts.swap(0, 2);
