@@ -25,7 +25,11 @@
 //! revolution 140; ⟨z_p⟩/H 0.332 against the paper's 0.31, Po_f 1.944 against 2.37, Po_c 1.200
 //! against 0.537, Po 3.145 against 2.91). It took about 3.2 h of stepping on 2 cores, twenty
 //! times this test's budget. No band against the paper is asserted anywhere in CI: the
-//! resolution study that would support one has a single point (s = 1/4) so far.
+//! resolution study that would support one (`reproduce/README.md`, "Resolution study") has
+//! two scales so far, and they disagree by more than the band: at s = 1/3
+//! (`reproduce/pbt-ld2/runs/2026-11-27-s0.33-r100`) ⟨z_p⟩/H was 0.246 at 100 revolutions,
+//! steady by the test but still rising (drift 0.012 over 20 revolutions), against 0.332 at
+//! s = 1/4; Po_f 1.856 against 1.944, falling with the single-phase impeller's Po.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};
 
