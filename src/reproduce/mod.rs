@@ -603,21 +603,24 @@ fn scheduled(c: &Case, sched: &Schedule) -> Case {
     s
 }
 
-/// Revolutions after the ramp that the time series of the run in `run_dir` reaches (its last
-/// row), or `None` when there is none to read.
-fn revolutions_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
+/// The step of the last row of the time series of the run in `run_dir` (`None` when there is
+/// none to read), from its time in revolutions (`c`'s steps per revolution).
+fn last_step_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
     let path = run_dir.join(crate::run::files::TIMESERIES);
     let ts = report::read_timeseries(&path, c.grid().nz as f64, sched.steps_per_revolution).ok()?;
-    let last = ts.time.last()?;
-    Some(last - sched.ramp_steps as f64 / sched.steps_per_revolution)
+    Some((ts.time.last()? * sched.steps_per_revolution).round())
 }
 
-/// The target, in revolutions after the ramp, of the leg a run of `revolutions` (with
-/// `--until-steady CAP`: legs of [`STEADY_CHECK_REVOLUTIONS`] after it, up to `CAP`) is in:
-/// the first leg end `t` for which `passed(t)` is false, or the cap. A resume passes "`t`
-/// below the revolutions done" (a run that ended a leg goes on to the next); `slurry status`
-/// passes "the leg's last step below the last row's" (a finished run is in the leg it ended).
-pub(crate) fn leg_target(revolutions: f64, until_steady: Option<f64>, passed: impl Fn(f64) -> bool) -> f64 {
+/// The target, in revolutions after the ramp, of the leg that a run of the scaled case `c` with
+/// `revolutions` (and `--until-steady CAP`: legs of [`STEADY_CHECK_REVOLUTIONS`] after it, up to
+/// `CAP`) is in, or ended, once its last row is at step `last_step`: the first leg whose last
+/// step ([`schedule`]) is not below `last_step`, or the cap. A leg ends on the output step at or
+/// after its revolutions (100.08 revolutions for 100 at s = 1/3), so the rule is on steps, not
+/// revolutions. The one rule of a resume (which continues that leg, or, if it was complete,
+/// runs the steady test that decides the next) and of `slurry status` (which measures progress
+/// against it).
+pub(crate) fn leg_target(c: &Case, revolutions: f64, until_steady: Option<f64>, last_step: f64) -> f64 {
+    let passed = |t: f64| schedule(c, t).is_ok_and(|s| (s.steps as f64) < last_step);
     let mut target = revolutions;
     if let Some(cap) = until_steady {
         while target < cap && passed(target) {
@@ -746,8 +749,8 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let mut target = opts.revolutions;
     if opts.resume {
         // A resumed run skips the legs it has already passed.
-        let done = revolutions_in_timeseries(&run_dir, &case, &sched).unwrap_or(0.0);
-        target = leg_target(opts.revolutions, opts.until_steady, |t| t < done - 1e-9);
+        let last = last_step_in_timeseries(&run_dir, &scaled, &sched).unwrap_or(0.0);
+        target = leg_target(&scaled, opts.revolutions, opts.until_steady, last);
     }
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {

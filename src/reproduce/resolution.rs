@@ -42,7 +42,8 @@ pub struct Point {
     pub dir: PathBuf,
     /// Scale `s` (1: the paper's grid).
     pub scale: f64,
-    /// Revolutions at the report (NaN: not recorded).
+    /// The run's time at its report in revolutions, `t N` (the ramp counts 1, so 201 for a run
+    /// of 200 revolutions after it; NaN: not recorded).
     pub revolutions: f64,
     /// The report's steady test passed.
     pub steady: bool,
@@ -181,7 +182,8 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     let _ = writeln!(
         s,
         "Each row is one run's report (`statistics.json`): ⟨z_p⟩/H over the steady test's window, \
-         the power numbers over the last 30 revolutions. *Italics*: the value does not count (the \
+         the power numbers over the last 30 revolutions; t N: the time in impeller revolutions, the \
+         ramp counting 1. *Italics*: the value does not count (the \
          run is not steady, or the power window has a lost stretch), so it is listed but enters \
          no order or limit. h = 1/s is the grid spacing in units of the paper's (d = 12 s lattice \
          spacings). Drift: the fitted change of ⟨z_p⟩/H over the steady test's last {} \
@@ -189,7 +191,7 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
          (†) is still moving in that direction, and its value is a bound more than a limit.\n",
         STEADY_REVOLUTIONS, STEADY_DRIFT
     );
-    let mut header = "| s | d | revolutions | steady | drift | power window covered |".to_string();
+    let mut header = "| s | d | t N at the end | steady | drift | power window covered |".to_string();
     let mut rule = "|---|---|---|---|---|---|".to_string();
     for (_, label) in QUANTITIES {
         header += &format!(" {label} |");

@@ -83,9 +83,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     // A leg ends on the output step at or after its revolutions, so the step, not the
     // revolutions, tells whether the last row lies beyond a leg's end.
     let last_step = ts.time.last().map_or(0.0, |t| (t * first.steps_per_revolution).round());
-    let target = leg_target(manifest.revolutions, manifest.until_steady, |t| {
-        schedule(&case, t).is_ok_and(|s| (s.steps as f64) < last_step)
-    });
+    let target = leg_target(&case, manifest.revolutions, manifest.until_steady, last_step);
     let leg = schedule(&case, target)?;
     let age = std::fs::metadata(&path)
         .and_then(|m| m.modified())
@@ -341,11 +339,10 @@ mod tests {
         );
     }
 
-    /// At s = 1/3 a revolution is 1333.3 steps, and a leg ends on the output step after its
-    /// revolutions (100.08 for 100): a run that finished there is in the leg it ended, not in
-    /// the next one (pbt-ld2 at s = 1/3 ended so on 2026-11-27, with `--until-steady 200`).
-    #[test]
-    fn a_finished_leg_at_a_fractional_revolution_is_the_last() {
+    /// A finished pbt-ld2 run at s = 1/3 (`--revolutions 100 --until-steady 200`) in a
+    /// temporary directory, from disk-ld1's archived manifest, with a time series of rows at
+    /// `steps` (the columns status reads; the rest placeholders).
+    fn synthetic_run(steps: impl Iterator<Item = u64>) -> tempfile::TempDir {
         let dir = tempfile::tempdir().unwrap();
         let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("reproduce/disk-ld1/runs/2026-11-26-s0.25-r130");
         let mut m: serde_json::Value =
@@ -359,13 +356,33 @@ mod tests {
         let header = "step,time,mass,momentum_x,momentum_y,momentum_z,max_mach,particle_mean_z,\
                       particle_max_speed,impeller_angle,impeller_omega,torque_fluid,torque_solids,\
                       torque_walls,po_fluid,po_solids,po,mlups";
-        let rows: String = [0u64, 67386, 134772]
-            .iter()
-            .map(|s| format!("{s},{s},1,0,0,0,0.1,19.6,0,{},0,0,0,0,1.9,0.5,2.4,12\n", *s as f64 * 4.7e-3))
+        let rows: String = steps
+            .map(|s| format!("{s},{s},1,0,0,0,0.1,19.6,0,{},0,0,0,0,1.9,0.5,2.4,12\n", s as f64 * 4.7e-3))
             .collect();
         std::fs::write(dir.path().join("timeseries.csv"), format!("{header}\n{rows}")).unwrap();
+        dir
+    }
+
+    /// At s = 1/3 a revolution is 1333.3 steps, and a leg ends on the output step after its
+    /// revolutions (100.08 for 100): a run that finished there is in the leg it ended, not in
+    /// the next one (pbt-ld2 at s = 1/3 ended so on 2026-11-27, with `--until-steady 200`).
+    #[test]
+    fn a_finished_leg_at_a_fractional_revolution_is_the_last() {
+        let dir = synthetic_run([0u64, 67386, 134772].into_iter());
         let text = status(dir.path()).unwrap();
         assert!(text.contains("progress: step 134772 of 134772 (100.1 of 100 revolutions"), "{text}");
+    }
+
+    /// Rows lost at the end of a window mark that window (the window's end closes the last
+    /// stretch without rows), not only a loss at a window's start.
+    #[test]
+    fn rows_lost_at_a_windows_end_mark_it() {
+        // Rows every 66 steps (the s = 1/3 output interval) to t N = 31, none in t N 8–11.
+        let spr = 4000.0 / 3.0;
+        let lost = |s: u64| (8.0..11.0).contains(&(s as f64 / spr));
+        let dir = synthetic_run((0..=(31.0 * spr / 66.0) as u64).map(|k| 66 * k).filter(|&s| !lost(s)));
+        let text = status(dir.path()).unwrap();
+        assert!(text.contains("1–11† ") && text.contains("11–21 ") && !text.contains("11–21†"), "{text}");
     }
 
     #[test]

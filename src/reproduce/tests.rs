@@ -211,3 +211,26 @@ fn cached_bed_reads_back_bitwise() {
     let off = a.iter().zip(&b).filter(|(x, y)| x != y).count();
     assert_eq!(off, 0, "{off} of {} numbers read back differently", a.len());
 }
+
+/// The leg a run is in, by its last row's step: at s = 1/3 (1333.3 steps per revolution) a leg
+/// of 100 revolutions ends at step 134 772, 100.08 revolutions after the ramp, and at s = 1/4
+/// exactly at 100. A run whose last row is its leg's last step is in that leg (a resume runs
+/// its steady test; status shows it complete) at both scales; one row more is the next leg.
+#[test]
+fn the_leg_of_a_run_is_found_by_its_last_step() {
+    let pc = paper_case("pbt-ld2").unwrap();
+    for (s, end) in [(0.333333333333, 134_772u64), (0.25, 101_000)] {
+        let c = scale_case(&pc.case().unwrap(), s).unwrap();
+        let steps = |t: f64| schedule(&c, t).unwrap().steps;
+        assert_eq!(steps(100.0), end, "s = {s}");
+        let leg = |last: u64| leg_target(&c, 100.0, Some(200.0), last as f64);
+        assert_eq!(leg(0), 100.0, "s = {s}");
+        assert_eq!(leg(end - 66), 100.0, "s = {s}: mid-leg");
+        assert_eq!(leg(end), 100.0, "s = {s}: the leg just ended");
+        assert_eq!(leg(end + 66), 110.0, "s = {s}: the next leg begun");
+        assert_eq!(leg(steps(110.0)), 110.0, "s = {s}");
+        assert_eq!(leg(steps(200.0) + 1000), 200.0, "s = {s}: never past the cap");
+        // Without --until-steady a run has one leg, whatever it has done.
+        assert_eq!(leg_target(&c, 100.0, None, (end + 66) as f64), 100.0, "s = {s}");
+    }
+}
