@@ -134,6 +134,19 @@ fn pbt_ld2_reduced_run() {
     let again = reproduce("pbt-ld2", &ReproduceOptions { resume: true, ..opts.clone() }).unwrap();
     assert!(again.record.bed_cached, "the bed of the resume comes from the cache");
     assert!(again.record.run.resumed_from.is_some_and(|k| k > 0 && k <= s.record.run.steps));
+    // The report says what the resumed session did: stepped from a checkpoint, or, resumed at
+    // the run's end, nothing (only redrawn); the bed's height above the floor with its z/H.
+    let report = std::fs::read_to_string(opts.out.join("report.md")).unwrap();
+    let k = again.record.run.resumed_from.unwrap();
+    if k == s.record.run.steps {
+        assert!(
+            report.contains(&format!("resumed the run at its last step, {k}: it stepped nothing")),
+            "{report}"
+        );
+    } else {
+        assert!(report.contains(&format!("resumed the run from its checkpoint at step {k}:")), "{report}");
+    }
+    assert!(report.contains(" above the floor (0.1"), "{report}");
     assert_eq!(again.results.snapshot_text(), r.snapshot_text());
 
     // `--until-steady`: resumed with a cap of 0.2 revolutions, the run goes on in legs (each a

@@ -776,7 +776,7 @@ fn report_md(
     );
     let _ = writeln!(
         m,
-        "- Bed: placed at random and settled {} in {} steps ({}), mean centre height {:.2} ({:.3} H); {}.",
+        "- Bed: placed at random and settled {} in {} steps ({}), mean centre height {:.2} above the floor ({:.3} H); {}.",
         if bed.wet {
             "in the fluid under the case's gravity"
         } else {
@@ -784,7 +784,8 @@ fn report_md(
         },
         bed.bed.steps,
         if bed.bed.settled { "settled" } else { "NOT settled: step limit" },
-        bed.bed.mean_height,
+        // The floor is at z = −½ (half-way bounce-back): heights above it, as ⟨z_p⟩/H.
+        bed.bed.mean_height + 0.5,
         (bed.bed.mean_height + 0.5) / g.nz as f64,
         if s.bed_cached { "from the cache" } else { "made for this run" }
     );
@@ -804,12 +805,23 @@ fn report_md(
     if let Some(c) = s.contacts.describe() {
         let _ = writeln!(m, "- Contacts of the stirred run: {c}.");
     }
-    if let Some(k) = s.run.resumed_from {
-        let _ = writeln!(
-            m,
-            "- This session resumed the run from its checkpoint at step {k}: the stepping time, MLUPS, Mach \
-             number and mass change above are this session's."
-        );
+    match s.run.resumed_from {
+        Some(k) if k >= s.run.steps => {
+            let _ = writeln!(
+                m,
+                "- This session resumed the run at its last step, {k}: it stepped nothing (the stepping \
+                 time, MLUPS, Mach number and mass change above are this session's, so empty); it redrew \
+                 the statistics, figures and this report from the run's files."
+            );
+        }
+        Some(k) => {
+            let _ = writeln!(
+                m,
+                "- This session resumed the run from its checkpoint at step {k}: the stepping time, MLUPS, \
+                 Mach number and mass change above are this session's."
+            );
+        }
+        None => {}
     }
     let _ = writeln!(
         m,
