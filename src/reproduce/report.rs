@@ -810,8 +810,8 @@ fn report_md(
             let _ = writeln!(
                 m,
                 "- This session resumed the run at its last step, {k}: it stepped nothing (the stepping \
-                 time, MLUPS, Mach number and mass change above are this session's, so empty); it redrew \
-                 the statistics, figures and this report from the run's files."
+                 time, MLUPS and mass change above are this session's, so none; the Mach number is the \
+                 resumed state's); it redrew the statistics, figures and this report from the run's files."
             );
         }
         Some(k) => {
