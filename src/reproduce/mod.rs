@@ -608,7 +608,7 @@ fn scheduled(c: &Case, sched: &Schedule) -> Case {
 fn last_step_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
     let path = run_dir.join(crate::run::files::TIMESERIES);
     let ts = report::read_timeseries(&path, c.grid().nz as f64, sched.steps_per_revolution).ok()?;
-    Some((ts.time.last()? * sched.steps_per_revolution).round())
+    ts.last_step(sched.steps_per_revolution)
 }
 
 /// The target, in revolutions after the ramp, of the leg that a run of the scaled case `c` with

@@ -163,6 +163,14 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
     parse_timeseries(&text, path, h, steps_per_rev)
 }
 
+impl TimeSeries {
+    /// The step of the last row (`time` is `step / steps_per_rev`: the rounding recovers the
+    /// integer step), or `None` for a series without rows.
+    pub fn last_step(&self, steps_per_rev: f64) -> Option<f64> {
+        self.time.last().map(|t| (t * steps_per_rev).round())
+    }
+}
+
 /// [`read_timeseries`] of the text of `timeseries.csv` (`path` names it in errors).
 ///
 /// # Errors

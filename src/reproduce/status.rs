@@ -82,7 +82,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
         report::parse_timeseries(complete_rows(&text), &path, grid.nz as f64, first.steps_per_revolution)?;
     // A leg ends on the output step at or after its revolutions, so the step, not the
     // revolutions, tells whether the last row lies beyond a leg's end.
-    let last_step = ts.time.last().map_or(0.0, |t| (t * first.steps_per_revolution).round());
+    let last_step = ts.last_step(first.steps_per_revolution).unwrap_or(0.0);
     let target = leg_target(&case, manifest.revolutions, manifest.until_steady, last_step);
     let leg = schedule(&case, target)?;
     let age = std::fs::metadata(&path)
@@ -172,11 +172,10 @@ fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
         );
     }
     let ramp_end = v.ramp_steps / v.steps_per_rev;
-    let Some(&t_last) = ts.time.last() else {
+    let (Some(&t_last), Some(step)) = (ts.time.last(), ts.last_step(v.steps_per_rev)) else {
         let _ = writeln!(s, "the time series has no rows yet");
         return s;
     };
-    let step = (t_last * v.steps_per_rev).round();
     let done = (t_last - ramp_end).max(0.0);
     let legs = match m.until_steady {
         Some(cap) if v.target_revolutions > m.revolutions => format!(

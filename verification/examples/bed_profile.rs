@@ -14,7 +14,9 @@
 
 use std::path::Path;
 
+use slurry::case::Case;
 use slurry::io::{ParticleFrame, ParticleProperties};
+use slurry::reproduce::BedRecord;
 use slurry::stats::{volume_fraction_profile, Tank};
 
 fn main() -> anyhow::Result<()> {
@@ -50,69 +52,44 @@ fn main() -> anyhow::Result<()> {
 /// Prints one bed's numbers; returns its label and φ(z) below 0.35 H.
 fn describe(path: &Path) -> anyhow::Result<(String, Vec<f64>, Vec<f64>)> {
     let text = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
-    let bed: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("{}: not JSON: {e}", path.display()))?;
-    let inputs =
-        bed["inputs"].as_str().ok_or_else(|| anyhow::anyhow!("{}: no \"inputs\"", path.display()))?;
-    let key = |k: &str| -> anyhow::Result<f64> {
-        inputs
-            .lines()
-            .find_map(|l| l.strip_prefix(&format!("{k} = ")).and_then(|v| v.trim().parse().ok()))
-            .ok_or_else(|| anyhow::anyhow!("{}: no `{k} = ` in the bed's inputs", path.display()))
+    let rec: BedRecord = serde_json::from_str(&text)
+        .map_err(|e| anyhow::anyhow!("{}: not a cached bed: {e}", path.display()))?;
+    // The case the bed was made from, with its particles where the bed left them.
+    let mut case = Case::parse_unchecked(&rec.inputs)
+        .map_err(|e| anyhow::anyhow!("{}: its inputs are not a case: {e}", path.display()))?;
+    case.random_particles.clear();
+    case.particles = rec.bed.particles.clone();
+    let inits = case.particle_inits().map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let (nx, nz) = (case.domain.nx as f64, case.domain.nz as f64);
+    let statics: Vec<ParticleProperties> = inits
+        .iter()
+        .map(|p| ParticleProperties {
+            shape: p.shape.name().to_string(),
+            diameter: p.diameter,
+            length: p.length.unwrap_or(f64::NAN),
+            density: p.density,
+            volume: p.volume(),
+            mass: p.density * p.volume(),
+            motion: p.motion.name().to_string(),
+        })
+        .collect();
+    let frame = ParticleFrame {
+        position: inits.iter().map(|p| [p.position.x, p.position.y, p.position.z]).collect(),
+        quaternion: inits
+            .iter()
+            .map(|p| [p.orientation.w, p.orientation.i, p.orientation.j, p.orientation.k])
+            .collect(),
+        velocity: vec![[0.0; 3]; inits.len()],
+        angular_velocity: vec![[0.0; 3]; inits.len()],
+        force: vec![[0.0; 3]; inits.len()],
+        torque: vec![[0.0; 3]; inits.len()],
+        ..Default::default()
     };
-    let (nx, nz) = (key("nx")?, key("nz")?);
-    let wet = bed["wet"].as_bool().unwrap_or(false);
-    let particles =
-        bed["particles"].as_array().ok_or_else(|| anyhow::anyhow!("{}: no \"particles\"", path.display()))?;
-    let mut statics = Vec::new();
-    let mut frame = ParticleFrame::default();
-    for (i, q) in particles.iter().enumerate() {
-        let num = |k: &str| q[k].as_f64();
-        let arr = |k: &str| -> Option<Vec<f64>> {
-            q[k].as_array().map(|a| a.iter().filter_map(|v| v.as_f64()).collect())
-        };
-        let (d, gamma) = (
-            num("diameter").ok_or_else(|| anyhow::anyhow!("particle {i}: no diameter"))?,
-            num("density").unwrap_or(f64::NAN),
-        );
-        let length = num("length").unwrap_or(f64::NAN);
-        let pos = arr("position")
-            .filter(|v| v.len() == 3)
-            .ok_or_else(|| anyhow::anyhow!("particle {i}: no position"))?;
-        let quat = arr("orientation").filter(|v| v.len() == 4).unwrap_or_else(|| vec![1.0, 0.0, 0.0, 0.0]);
-        if q.get("axis").is_some_and(|a| !a.is_null()) {
-            anyhow::bail!(
-                "{}: particle {i} gives an axis, not an orientation (not a settled bed)",
-                path.display()
-            );
-        }
-        let shape = q["shape"].as_str().unwrap_or("cylinder").to_string();
-        let volume = if shape == "sphere" {
-            std::f64::consts::PI * d * d * d / 6.0
-        } else {
-            std::f64::consts::PI * d * d * length / 4.0
-        };
-        statics.push(ParticleProperties {
-            shape,
-            diameter: d,
-            length,
-            density: gamma,
-            volume,
-            mass: gamma * volume,
-            motion: "free".into(),
-        });
-        frame.position.push([pos[0], pos[1], pos[2]]);
-        frame.quaternion.push([quat[0], quat[1], quat[2], quat[3]]);
-        frame.velocity.push([0.0; 3]);
-        frame.angular_velocity.push([0.0; 3]);
-        frame.force.push([0.0; 3]);
-        frame.torque.push([0.0; 3]);
-    }
     let d = statics.first().map_or(1.0, |s| s.diameter);
     let tank = Tank { t: nx, h: nz, tip_speed: 1.0, steps_per_rev: 1.0 };
     let prof = volume_fraction_profile(std::slice::from_ref(&frame), &statics, &tank, d / 4.0)?;
-    let heights: Vec<f64> = frame.position.iter().map(|p| p[2] + 0.5).collect();
-    let mean = heights.iter().sum::<f64>() / heights.len() as f64;
+    // The bed's mean centre coordinate, above the floor at z = −½ (as the report and ⟨z_p⟩/H).
+    let mean = rec.bed.mean_height + 0.5;
     let solids: f64 = statics.iter().map(|s| s.volume).sum();
     let dz = nz / prof.z_over_h.len() as f64;
     let above: f64 =
@@ -127,15 +104,15 @@ fn describe(path: &Path) -> anyhow::Result<(String, Vec<f64>, Vec<f64>)> {
     let label = format!(
         "{} ({})",
         path.parent().and_then(|p| p.file_name()).map_or("bed".into(), |n| n.to_string_lossy().to_string()),
-        if wet { "wet" } else { "dry" }
+        if rec.wet { "wet" } else { "dry" }
     );
     println!("## {label}: {}", path.display());
     println!(
         "- {} particles of d = {d}, tank {nx} × {nx} × {nz}; settled {} in {} steps (mean speed at the end {:.2e})",
         statics.len(),
-        bed["settled"].as_bool().map_or("?", |s| if s { "yes" } else { "no" }),
-        bed["steps"].as_u64().unwrap_or(0),
-        bed["mean_speed"].as_f64().unwrap_or(f64::NAN)
+        if rec.bed.settled { "yes" } else { "no" },
+        rec.bed.steps,
+        rec.bed.mean_speed
     );
     println!(
         "- mean centre height above the floor {mean:.3} = {:.4} H = {:.3} d; first layer's peak φ (z < d) {first:.3}; \
