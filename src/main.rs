@@ -579,6 +579,7 @@ fn cmd_settle(a: SettleArgs) -> anyhow::Result<()> {
         min_steps: a.min_steps,
         max_steps: a.max_steps,
         quiet: a.quiet,
+        checkpoint_every_s: slurry::settle::SETTLING_CHECKPOINT_EVERY_S,
     };
     let s = pool
         .install(|| settle_case(&case, &a.out, opts))

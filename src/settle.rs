@@ -13,6 +13,15 @@
 //!
 //! both written atomically. The placement is seeded, the step is deterministic for any thread
 //! count, so the same case gives the same bed bit for bit.
+//!
+//! **Resumable.** Settling in the fluid takes `10⁵` coupled steps at half scale, hours, more
+//! than one sitting: it keeps a checkpoint of its state ([`SETTLING_CHECKPOINT`], the run's
+//! checkpoint format, with the fingerprint of the case and the stopping rule) and a small
+//! record beside it ([`SETTLING_RECORD`]: restarts, wall time), written atomically at a
+//! check of the stopping rule every [`SettleOptions::checkpoint_every_s`] seconds, and when
+//! the step limit stops it unsettled. Started again with the checkpoint in place, it
+//! continues from there, bit for bit the bed of an uninterrupted settling; a checkpoint
+//! written for another case or rule is refused with an error, never silently replaced.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -40,7 +49,21 @@ pub struct SettleOptions {
     pub max_steps: u64,
     /// No progress output.
     pub quiet: bool,
+    /// With a checkpoint path ([`wet_bed`], [`settle_case`]): wall-clock seconds between
+    /// checkpoints (written at the first check of the stopping rule after this long; 0: at
+    /// every check).
+    pub checkpoint_every_s: f64,
 }
+
+/// The settling's checkpoint (module docs, "Resumable"), in `slurry settle`'s output
+/// directory or beside the cached bed of `slurry reproduce --bed wet`.
+pub const SETTLING_CHECKPOINT: &str = "settling.h5";
+
+/// The settling's record beside its checkpoint: `{"step", "restarts", "seconds"}`.
+pub const SETTLING_RECORD: &str = "settling.json";
+
+/// Default [`SettleOptions::checkpoint_every_s`]: 10 minutes.
+pub const SETTLING_CHECKPOINT_EVERY_S: f64 = 600.0;
 
 /// What [`settle_case`] did.
 #[derive(Clone, Debug)]
@@ -53,23 +76,30 @@ pub struct SettleSummary {
     pub settled: bool,
     /// Mean height of the particle centres at the end.
     pub mean_height: f64,
-    /// Wall-clock seconds.
+    /// Wall-clock seconds, over all sessions of a resumed settling.
     pub seconds: f64,
+    /// How many times the settling was resumed from its checkpoint.
+    pub restarts: u64,
     /// `bed.h5`.
     pub bed_h5: PathBuf,
     /// `bed_particles.toml`.
     pub bed_toml: PathBuf,
 }
 
-/// Settles `case` (module docs) and writes the bed into `out_dir`.
+/// Settles `case` (module docs) and writes the bed into `out_dir`, resuming from the
+/// settling's checkpoint there ([`SETTLING_CHECKPOINT`]) if it has one. The checkpoint is
+/// removed once the bed has settled and is written; a bed stopped unsettled by `max_steps`
+/// keeps it, so that a second call with a larger `max_steps` goes on from there.
 ///
 /// # Errors
 /// A case without free particles, gravity or `[contacts]`; a coupling error; numerical
-/// trouble (non-finite particle state); an output failure.
+/// trouble (non-finite particle state, the last checkpoint kept); a checkpoint in `out_dir`
+/// written for another case or stopping rule; an output failure.
 pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
     let case = settling_case(case)?;
     std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
-    let settled = in_fluid(&case, opts)?;
+    let checkpoint = out_dir.join(SETTLING_CHECKPOINT);
+    let settled = in_fluid(&case, opts, Some(&checkpoint))?;
     let bed = &settled.bed;
     // The bed: one frame in the particles.h5 layout, and explicit [[particles]] entries.
     let bed_h5 = out_dir.join("bed.h5");
@@ -109,12 +139,16 @@ pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::
     let bed_toml = out_dir.join("bed_particles.toml");
     atomic_write_bytes(&bed_toml, toml.as_bytes())
         .with_context(|| format!("cannot write {}", bed_toml.display()))?;
+    if bed.settled {
+        remove_settling_checkpoint(&checkpoint)?;
+    }
     Ok(SettleSummary {
         steps: bed.steps,
         mean_speed: bed.mean_speed,
         settled: bed.settled,
         mean_height: bed.mean_height,
         seconds: bed.seconds,
+        restarts: bed.restarts,
         bed_h5,
         bed_toml,
     })
@@ -122,12 +156,98 @@ pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::
 
 /// Settles `case`'s particles **in the fluid** under the case's gravity (module docs: the
 /// paper's way, `slurry settle`'s stopping rule), and returns the bed without writing it:
-/// the reproduction's `--bed wet`.
+/// the reproduction's `--bed wet`. With `checkpoint`, the settling keeps its checkpoint
+/// there and resumes from it (module docs, "Resumable"); the caller removes it
+/// ([`remove_settling_checkpoint`]) once the bed is stored.
 ///
 /// # Errors
 /// As [`settle_case`], without the output.
-pub fn wet_bed(case: &Case, opts: SettleOptions) -> anyhow::Result<Bed> {
-    Ok(in_fluid(&settling_case(case)?, opts)?.bed)
+pub fn wet_bed(case: &Case, opts: SettleOptions, checkpoint: Option<&Path>) -> anyhow::Result<Bed> {
+    Ok(in_fluid(&settling_case(case)?, opts, checkpoint)?.bed)
+}
+
+/// Removes a settling's checkpoint and its record (module docs, "Resumable"), if there.
+///
+/// # Errors
+/// A file that exists but cannot be removed.
+pub fn remove_settling_checkpoint(checkpoint: &Path) -> anyhow::Result<()> {
+    for p in [checkpoint.to_path_buf(), checkpoint.with_file_name(SETTLING_RECORD)] {
+        match std::fs::remove_file(&p) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(e).with_context(|| format!("cannot remove {}", p.display()));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// The record beside a settling's checkpoint ([`SETTLING_RECORD`]).
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
+struct SettlingRecord {
+    /// The checkpoint's step.
+    step: u64,
+    /// Resumptions so far.
+    restarts: u64,
+    /// Wall-clock seconds of settling up to the checkpoint, over all sessions.
+    seconds: f64,
+}
+
+/// The fingerprint a settling's checkpoint is written with: the case and the parts of the
+/// stopping rule that decide where it stops (`max_steps` may grow between sessions).
+fn settling_fingerprint(case: &Case, opts: &SettleOptions) -> anyhow::Result<String> {
+    let text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
+    Ok(format!(
+        "{text}\n# settling in the fluid: stop below mean speed {:?}, checked every {}, not before step {}\n",
+        opts.speed, opts.check_every, opts.min_steps
+    ))
+}
+
+/// Restores `c` from the settling checkpoint `path` written with `fingerprint`; returns its
+/// record, with the step of the checkpoint.
+fn resume_settling<T: Real + hdf5::H5Type>(
+    c: &mut Coupled<T>,
+    path: &Path,
+    fingerprint: &str,
+) -> anyhow::Result<SettlingRecord> {
+    let cp = crate::io::read_checkpoint::<T>(path)
+        .with_context(|| format!("settle: cannot read the settling checkpoint {}", path.display()))?;
+    if cp.case != fingerprint {
+        anyhow::bail!(
+            "settle: {} was written for another case or stopping rule (speed, check interval, minimum \
+             steps); remove it (and {}) to settle afresh",
+            path.display(),
+            SETTLING_RECORD
+        );
+    }
+    let bodies = cp.bodies.ok_or_else(|| anyhow::anyhow!("settle: {} holds no particles", path.display()))?;
+    let step = cp.state.time;
+    c.restore(&crate::coupling::CoupledState { fluid: cp.state, bodies })
+        .map_err(|e| anyhow::anyhow!("settle: cannot restore {}: {e}", path.display()))?;
+    // The record is written after the checkpoint: one of an earlier checkpoint (a session
+    // stopped between the two writes) still holds the right counts up to its own step.
+    let record_path = path.with_file_name(SETTLING_RECORD);
+    let record = std::fs::read_to_string(&record_path)
+        .ok()
+        .and_then(|t| serde_json::from_str::<SettlingRecord>(&t).ok())
+        .unwrap_or_default();
+    Ok(SettlingRecord { step, ..record })
+}
+
+/// Writes the settling's checkpoint of `c` at `path` and its record beside it, atomically.
+fn write_settling<T: Real + hdf5::H5Type>(
+    c: &Coupled<T>,
+    path: &Path,
+    fingerprint: &str,
+    record: SettlingRecord,
+) -> anyhow::Result<()> {
+    let state = c.snapshot().context("settle: checkpoint at an odd step")?;
+    crate::io::write_checkpoint(path, &state.fluid, Some(&state.bodies), fingerprint)
+        .with_context(|| format!("settle: cannot write {}", path.display()))?;
+    let record_path = path.with_file_name(SETTLING_RECORD);
+    let json = serde_json::to_string(&record).context("cannot serialise the settling record")?;
+    atomic_write_bytes(&record_path, json.as_bytes())
+        .with_context(|| format!("settle: cannot write {}", record_path.display()))
 }
 
 /// `case` without its impeller (the paper settles the bed with no impeller present,
@@ -157,14 +277,18 @@ struct InFluid {
     frame: crate::io::ParticleFrame,
 }
 
-fn in_fluid(case: &Case, opts: SettleOptions) -> anyhow::Result<InFluid> {
+fn in_fluid(case: &Case, opts: SettleOptions, checkpoint: Option<&Path>) -> anyhow::Result<InFluid> {
     match case.fluid.precision {
-        Precision::F32 => in_fluid_typed::<f32>(case, opts),
-        Precision::F64 => in_fluid_typed::<f64>(case, opts),
+        Precision::F32 => in_fluid_typed::<f32>(case, opts, checkpoint),
+        Precision::F64 => in_fluid_typed::<f64>(case, opts, checkpoint),
     }
 }
 
-fn in_fluid_typed<T: Real>(case: &Case, opts: SettleOptions) -> anyhow::Result<InFluid> {
+fn in_fluid_typed<T: Real + hdf5::H5Type>(
+    case: &Case,
+    opts: SettleOptions,
+    checkpoint: Option<&Path>,
+) -> anyhow::Result<InFluid> {
     let start = Instant::now();
     let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     let mut c = drive::coupled::<T>(case, &inits, None)?;
@@ -175,7 +299,30 @@ fn in_fluid_typed<T: Real>(case: &Case, opts: SettleOptions) -> anyhow::Result<I
     let mean_speed =
         |c: &Coupled<T>| free.iter().map(|&b| c.bodies()[b].velocity.norm()).sum::<f64>() / free.len() as f64;
     let every = opts.check_every.max(2) + opts.check_every % 2;
-    let (mut steps, mut speed, mut settled) = (0u64, f64::INFINITY, false);
+    let fingerprint = settling_fingerprint(case, &opts)?;
+    // Resumed from the checkpoint if there is one: its checks fall on the same steps (the
+    // checkpoint is taken at a check), so the stop is where the uninterrupted settling stops.
+    let earlier = match checkpoint.filter(|p| p.is_file()) {
+        Some(p) => {
+            let r = resume_settling(&mut c, p, &fingerprint)?;
+            if !opts.quiet {
+                eprintln!(
+                    "settle: resumed from {} at step {} (restart {})",
+                    p.display(),
+                    r.step,
+                    r.restarts + 1
+                );
+            }
+            Some(r)
+        }
+        None => None,
+    };
+    let (restarts, seconds_before) = earlier.map_or((0, 0.0), |r| (r.restarts + 1, r.seconds));
+    let (mut steps, mut speed, mut settled) = (earlier.map_or(0, |r| r.step), f64::INFINITY, false);
+    if earlier.is_some() {
+        speed = mean_speed(&c);
+    }
+    let mut last_checkpoint = Instant::now();
     while steps < opts.max_steps {
         rayon::scope(|_| c.run(every))
             .map_err(|e| anyhow::anyhow!("the coupled step failed at step {steps}: {e}"))?;
@@ -189,12 +336,20 @@ fn in_fluid_typed<T: Real>(case: &Case, opts: SettleOptions) -> anyhow::Result<I
             eprintln!(
                 "settle: step {steps}, mean particle speed {speed:.3e} (stop below {:.1e}), {:.0} s",
                 opts.speed,
-                start.elapsed().as_secs_f64()
+                seconds_before + start.elapsed().as_secs_f64()
             );
         }
         if steps >= opts.min_steps && speed < opts.speed {
             settled = true;
             break;
+        }
+        if let Some(p) = checkpoint {
+            let due = last_checkpoint.elapsed().as_secs_f64() >= opts.checkpoint_every_s;
+            if due || steps >= opts.max_steps {
+                let seconds = seconds_before + start.elapsed().as_secs_f64();
+                write_settling(&c, p, &fingerprint, SettlingRecord { step: steps, restarts, seconds })?;
+                last_checkpoint = Instant::now();
+            }
         }
     }
     let bodies = &c.bodies()[..inits.len()];
@@ -206,7 +361,8 @@ fn in_fluid_typed<T: Real>(case: &Case, opts: SettleOptions) -> anyhow::Result<I
         max_speed,
         settled,
         mean_height: bodies.iter().map(|b| b.position.z).sum::<f64>() / bodies.len() as f64,
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: seconds_before + start.elapsed().as_secs_f64(),
+        restarts,
     };
     Ok(InFluid { bed, statics: particle_statics(&inits), frame: particle_frame(&c, inits.len()) })
 }
@@ -295,8 +451,12 @@ pub struct Bed {
     pub settled: bool,
     /// Mean height of the particle centres.
     pub mean_height: f64,
-    /// Wall-clock seconds.
+    /// Wall-clock seconds (over all sessions of a resumed settling).
     pub seconds: f64,
+    /// How many times the settling was resumed from its checkpoint (0 for a dry bed, and in
+    /// records written before it was counted).
+    #[serde(default)]
+    pub restarts: u64,
 }
 
 /// Settles a case's particles **without fluid** into a bed: the case's placement, then
@@ -413,5 +573,6 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
         settled: vmean < stop,
         mean_height,
         seconds: start.elapsed().as_secs_f64(),
+        restarts: 0,
     })
 }

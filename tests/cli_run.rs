@@ -310,14 +310,75 @@ fn settle_writes_a_reusable_bed() {
         min_steps: 400,
         max_steps: 30000,
         quiet: true,
+        checkpoint_every_s: 0.0,
     };
-    let wet = slurry::settle::wet_bed(&c, opts).unwrap();
+    let wet = slurry::settle::wet_bed(&c, opts, None).unwrap();
     assert!(wet.settled && wet.mean_speed < 2e-4, "{wet:?}");
     let wet_pos: Vec<f64> = wet.particles.iter().flat_map(|p| p.position).collect();
     assert!(
         wet_pos.iter().zip(&pa).all(|(x, y)| x.to_bits() == y.to_bits()),
         "wet_bed {wet_pos:?} differs from slurry settle's bed {pa:?}"
     );
+}
+
+/// A settling stopped by its step limit keeps its checkpoint (exit 1, "NOT settled"); run
+/// again with a larger limit it resumes there, says so, and writes the bed of an
+/// uninterrupted settling bit for bit, then removes the checkpoint. A checkpoint written for
+/// another stopping rule is refused, naming the file.
+#[test]
+fn settle_resumes_from_its_checkpoint() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("settle.toml");
+    std::fs::write(&case, settle_case()).unwrap();
+    let settle = |out: &std::path::Path, max_steps: &str, speed: &str| {
+        slurry(&[
+            "settle",
+            case.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--speed",
+            speed,
+            "--min-steps",
+            "400",
+            "--check-every",
+            "100",
+            "--max-steps",
+            max_steps,
+        ])
+    };
+    let (whole, parts) = (dir.path().join("whole"), dir.path().join("parts"));
+    let o = settle(&whole, "30000", "2e-4");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!whole.join("settling.h5").exists(), "a settled bed leaves no checkpoint");
+
+    let o = settle(&parts, "600", "2e-4");
+    assert!(!o.status.success() && stderr(&o).contains("NOT settled"), "{}", stderr(&o));
+    assert!(parts.join("settling.h5").is_file() && parts.join("settling.json").is_file());
+    // Another stopping rule: refused, the checkpoint kept.
+    let o = settle(&parts, "30000", "1e-4");
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("settling.h5") && stderr(&o).contains("another case or stopping rule"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(parts.join("settling.h5").is_file());
+
+    let o = settle(&parts, "30000", "2e-4");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("resumed from") && stderr(&o).contains("at step 600"), "{}", stderr(&o));
+    assert!(!parts.join("settling.h5").exists() && !parts.join("settling.json").exists());
+    let pos = |d: &std::path::Path| {
+        hdf5::File::open(d.join("bed.h5")).unwrap().dataset("position").unwrap().read_raw::<f64>().unwrap()
+    };
+    let (a, b) = (pos(&whole), pos(&parts));
+    assert_eq!(a.len(), 9);
+    assert!(
+        a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "resumed bed {b:?} differs from the uninterrupted one {a:?}"
+    );
+    let toml = |d: &std::path::Path| std::fs::read_to_string(d.join("bed_particles.toml")).unwrap();
+    assert_eq!(toml(&whole), toml(&parts));
 }
 
 /// `[run] snapshots`: the fields of each listed step are written beside the last step's, as

@@ -41,7 +41,10 @@
 //!    ([`crate::settle::dry_bed`], the default) or in the fluid under the case's gravity
 //!    (`--bed wet`, [`crate::settle::wet_bed`], as the paper does), with no impeller. The bed is cached under
 //!    `CACHE/beds/<case>-<key>/` by a hash of everything it depends on (the scaled case
-//!    without its run settings and impeller, and the settling options), and reused.
+//!    without its run settings and impeller, and the settling options), and reused. A wet
+//!    settling (hours at `s = 1/2`) keeps its checkpoint in that directory every 10 minutes
+//!    and resumes from it when started again (any `reproduce` of the case with `--bed wet`);
+//!    the checkpoint is removed once the bed is stored.
 //! 2. **Stirred run**: the bed's particles as explicit particles, the impeller inserted,
 //!    the ramp (half a revolution) and `R` revolutions, by [`crate::run::run_case`]:
 //!    checkpoints every few revolutions (atomic), `--resume` bitwise identical, progress
@@ -73,7 +76,10 @@ use serde::{Deserialize, Serialize};
 use crate::case::Case;
 use crate::io::atomic_write_bytes;
 use crate::run::{run_case, RunOptions, RunSummary};
-use crate::settle::{dry_bed, wet_bed, Bed, DryBedOptions, SettleOptions};
+use crate::settle::{
+    dry_bed, remove_settling_checkpoint, wet_bed, Bed, DryBedOptions, SettleOptions, SETTLING_CHECKPOINT,
+    SETTLING_CHECKPOINT_EVERY_S,
+};
 
 /// The paper's cases, in the order of `--all`.
 pub const CASES: [&str; 6] = ["disk-ld1", "disk-ld2", "disk-ld4", "pbt-ld1", "pbt-ld2", "pbt-ld4"];
@@ -494,7 +500,14 @@ pub fn wet_settling(c: &Case) -> SettleOptions {
         .unwrap_or((1.0, 2.0));
     let v_s = ((gamma - 1.0) * g * d * d / (18.0 * c.nu())).max(1e-12);
     let fall = (c.grid().nz as f64 / v_s).ceil().min(1e9) as u64;
-    SettleOptions { speed: 0.02 * v_s, check_every: 100, min_steps: fall, max_steps: 4 * fall, quiet: true }
+    SettleOptions {
+        speed: 0.02 * v_s,
+        check_every: 100,
+        min_steps: fall,
+        max_steps: 4 * fall,
+        quiet: true,
+        checkpoint_every_s: SETTLING_CHECKPOINT_EVERY_S,
+    }
 }
 
 /// The bed of the scaled case `c`: from the cache when it holds one made from the same
@@ -562,15 +575,18 @@ pub fn bed(
                     wet.max_steps
                 );
             }
-            wet_bed(&key_case, SettleOptions { quiet, ..wet })?
+            // Hours at s = 1/2: resumable from its checkpoint beside the cached bed.
+            std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+            wet_bed(&key_case, SettleOptions { quiet, ..wet }, Some(&dir.join(SETTLING_CHECKPOINT)))?
         }
     };
     if !quiet {
         eprintln!(
-            "bed: {} after {} steps ({:.0} s), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
+            "bed: {} after {} steps ({:.0} s{}), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
             if b.settled { "settled" } else { "NOT settled (step limit)" },
             b.steps,
             b.seconds,
+            if b.restarts > 0 { format!(", {} restarts", b.restarts) } else { String::new() },
             b.mean_height,
             b.mean_speed,
             b.max_speed
@@ -580,6 +596,7 @@ pub fn bed(
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
+    remove_settling_checkpoint(&dir.join(SETTLING_CHECKPOINT))?;
     Ok((rec, false))
 }
 

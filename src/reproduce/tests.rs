@@ -196,6 +196,7 @@ fn cached_bed_reads_back_bitwise() {
             settled: true,
             mean_height: 9.94,
             seconds: 1.0,
+            restarts: 0,
         },
     };
     let back: BedRecord = serde_json::from_str(&serde_json::to_string(&rec).unwrap()).unwrap();
