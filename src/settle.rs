@@ -59,7 +59,7 @@ pub struct SettleOptions {
 /// directory or beside the cached bed of `slurry reproduce --bed wet`.
 pub const SETTLING_CHECKPOINT: &str = "settling.h5";
 
-/// The settling's record beside its checkpoint: `{"step", "restarts", "seconds"}`.
+/// The settling's record beside its checkpoint: `{"step", "restarts", "seconds", "mean_speed"}`.
 pub const SETTLING_RECORD: &str = "settling.json";
 
 /// Default [`SettleOptions::checkpoint_every_s`]: 10 minutes.
@@ -191,6 +191,10 @@ struct SettlingRecord {
     restarts: u64,
     /// Wall-clock seconds of settling up to the checkpoint, over all sessions.
     seconds: f64,
+    /// Mean speed of the free particles at the checkpoint (progress against the stopping
+    /// rule, for whoever watches a long settling).
+    #[serde(default)]
+    mean_speed: f64,
 }
 
 /// The fingerprint a settling's checkpoint is written with: the case and the parts of the
@@ -347,7 +351,12 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
             let due = last_checkpoint.elapsed().as_secs_f64() >= opts.checkpoint_every_s;
             if due || steps >= opts.max_steps {
                 let seconds = seconds_before + start.elapsed().as_secs_f64();
-                write_settling(&c, p, &fingerprint, SettlingRecord { step: steps, restarts, seconds })?;
+                write_settling(
+                    &c,
+                    p,
+                    &fingerprint,
+                    SettlingRecord { step: steps, restarts, seconds, mean_speed: speed },
+                )?;
                 last_checkpoint = Instant::now();
             }
         }

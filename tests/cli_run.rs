@@ -353,7 +353,9 @@ fn settle_resumes_from_its_checkpoint() {
 
     let o = settle(&parts, "600", "2e-4");
     assert!(!o.status.success() && stderr(&o).contains("NOT settled"), "{}", stderr(&o));
-    assert!(parts.join("settling.h5").is_file() && parts.join("settling.json").is_file());
+    assert!(parts.join("settling.h5").is_file());
+    let record = std::fs::read_to_string(parts.join("settling.json")).unwrap();
+    assert!(record.contains("\"step\":600") && record.contains("\"restarts\":0"), "{record}");
     // Another stopping rule: refused, the checkpoint kept.
     let o = settle(&parts, "30000", "1e-4");
     assert!(!o.status.success(), "{}", stderr(&o));
