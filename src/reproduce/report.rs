@@ -784,7 +784,7 @@ fn report_md(
     );
     let _ = writeln!(
         m,
-        "- Bed: placed at random and settled {} in {} steps ({}), mean centre height {:.2} above the floor ({:.3} H); {}.",
+        "- Bed: placed at random and settled {} in {} steps ({}{}), mean centre height {:.2} above the floor ({:.3} H); {}.",
         if bed.wet {
             "in the fluid under the case's gravity"
         } else {
@@ -792,6 +792,17 @@ fn report_md(
         },
         bed.bed.steps,
         if bed.bed.settled { "settled" } else { "NOT settled: step limit" },
+        // A wet settling takes hours and may span sessions: its cost, as the run's is given.
+        if bed.wet {
+            format!(
+                "; {:.1} h of settling in {} session{}",
+                bed.bed.seconds / 3600.0,
+                bed.bed.restarts + 1,
+                if bed.bed.restarts == 0 { "" } else { "s" }
+            )
+        } else {
+            String::new()
+        },
         // The floor is at z = −½ (half-way bounce-back): heights above it, as ⟨z_p⟩/H.
         bed.bed.mean_height + 0.5,
         (bed.bed.mean_height + 0.5) / g.nz as f64,
