@@ -231,8 +231,11 @@
 //! **Cost** (`slurry bench --coupled`, s = 1/4, 2 threads, from run checkpoints, one window):
 //! pbt-ld2 at steady state, contacts 15.8 ms per fluid step at the default against 10.8 ms
 //! at `2 × 4` (step 46.6 → 42.1–45.0 ms); pbt-ld1 after 33 revolutions (1644 cylinders, most
-//! in the bed), contacts 35.5 → 18.3 ms, step 69.7 → 47.2 ms. Not the default until a steady
-//! run shows the statistics unchanged (reproduce/README.md).
+//! in the bed), contacts 35.5 → 18.3 ms, step 69.7 → 47.2 ms; at s = 1/2 from the six beds
+//! the contacts halve and the step is 1.1–1.3 times faster (2026-11-27). **Not the default**:
+//! two paired continuations of steady runs at s = 1/4 put ⟨z_p⟩/H lower by 0.003–0.004
+//! (pbt-ld2) and 0.006–0.0075 (disk-ld1), beyond the spread of two realisations, with the power
+//! numbers unchanged within their noise (reproduce/README.md, "Lubrication sub-steps").
 //!
 //! # Known deviations of the model (measured by `contacts_dry`)
 //!
