@@ -59,7 +59,7 @@ pub struct SettleOptions {
 /// directory or beside the cached bed of `slurry reproduce --bed wet`.
 pub const SETTLING_CHECKPOINT: &str = "settling.h5";
 
-/// The settling's record beside its checkpoint: `{"step", "restarts", "seconds", "mean_speed"}`.
+/// The settling's record beside its checkpoint ([`SettlingRecord`]).
 pub const SETTLING_RECORD: &str = "settling.json";
 
 /// Default [`SettleOptions::checkpoint_every_s`]: 10 minutes.
@@ -182,19 +182,36 @@ pub fn remove_settling_checkpoint(checkpoint: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The record beside a settling's checkpoint ([`SETTLING_RECORD`]).
-#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
-struct SettlingRecord {
+/// The record beside a settling's checkpoint ([`SETTLING_RECORD`]): where the settling
+/// stands, for its resumption and for whoever watches it (`slurry status`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SettlingRecord {
     /// The checkpoint's step.
-    step: u64,
+    pub step: u64,
     /// Resumptions so far.
-    restarts: u64,
+    pub restarts: u64,
     /// Wall-clock seconds of settling up to the checkpoint, over all sessions.
-    seconds: f64,
-    /// Mean speed of the free particles at the checkpoint (progress against the stopping
-    /// rule, for whoever watches a long settling).
+    pub seconds: f64,
+    /// Mean speed of the free particles at the checkpoint.
     #[serde(default)]
-    mean_speed: f64,
+    pub mean_speed: f64,
+    /// The stopping rule: stop below this mean speed ([`SettleOptions::speed`]) …
+    #[serde(default)]
+    pub stop_speed: f64,
+    /// … not before this step ([`SettleOptions::min_steps`]) …
+    #[serde(default)]
+    pub min_steps: u64,
+    /// … and give up at this one ([`SettleOptions::max_steps`]).
+    #[serde(default)]
+    pub max_steps: u64,
+}
+
+impl SettlingRecord {
+    /// The record beside the settling checkpoint `checkpoint`, if there is a readable one.
+    pub fn beside(checkpoint: &Path) -> Option<SettlingRecord> {
+        let text = std::fs::read_to_string(checkpoint.with_file_name(SETTLING_RECORD)).ok()?;
+        serde_json::from_str(&text).ok()
+    }
 }
 
 /// The fingerprint a settling's checkpoint is written with: the case and the parts of the
@@ -230,11 +247,7 @@ fn resume_settling<T: Real + hdf5::H5Type>(
         .map_err(|e| anyhow::anyhow!("settle: cannot restore {}: {e}", path.display()))?;
     // The record is written after the checkpoint: one of an earlier checkpoint (a session
     // stopped between the two writes) still holds the right counts up to its own step.
-    let record_path = path.with_file_name(SETTLING_RECORD);
-    let record = std::fs::read_to_string(&record_path)
-        .ok()
-        .and_then(|t| serde_json::from_str::<SettlingRecord>(&t).ok())
-        .unwrap_or_default();
+    let record = SettlingRecord::beside(path).unwrap_or_default();
     Ok(SettlingRecord { step, ..record })
 }
 
@@ -355,7 +368,15 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
                     &c,
                     p,
                     &fingerprint,
-                    SettlingRecord { step: steps, restarts, seconds, mean_speed: speed },
+                    SettlingRecord {
+                        step: steps,
+                        restarts,
+                        seconds,
+                        mean_speed: speed,
+                        stop_speed: opts.speed,
+                        min_steps: opts.min_steps,
+                        max_steps: opts.max_steps,
+                    },
                 )?;
                 last_checkpoint = Instant::now();
             }

@@ -484,6 +484,10 @@ impl Default for BedMethod {
     }
 }
 
+/// In a reproduction's output directory while its bed settles in the fluid: the path of the
+/// bed's cache directory ([`bed_dir`]), whose settling record `slurry status` reads.
+pub const SETTLING_POINTER: &str = "settling-bed.txt";
+
 /// The wet settling's stopping rule for the scaled case `c`, from the Stokes settling speed
 /// of a sphere of the particles' diameter, `v_s = (γ − 1) g d²/(18 ν)` (1.6e-3 at every
 /// scale for the paper's cases: `g ∝ 1/s`, `d ∝ s`, `ν ∝ s`): stop when the mean particle
@@ -510,19 +514,24 @@ pub fn wet_settling(c: &Case) -> SettleOptions {
     }
 }
 
-/// The bed of the scaled case `c`: from the cache when it holds one made from the same
-/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
-/// record and whether it came from the cache.
+/// The cache directory of the bed of the scaled case `c` settled by `method` (keyed by a hash
+/// of its inputs, [`bed`]), where a wet settling keeps its checkpoint
+/// ([`SETTLING_CHECKPOINT`]) until the bed is stored.
 ///
 /// # Errors
-/// Settling failed, or the cache cannot be written.
-pub fn bed(
+/// The case cannot be serialised.
+pub fn bed_dir(name: &str, c: &Case, method: BedMethod, cache: &Path) -> anyhow::Result<PathBuf> {
+    Ok(bed_key(name, c, method, cache)?.0)
+}
+
+/// The bed's cache directory, the inputs it is keyed by, the case it is settled from (without
+/// impeller and run settings) and the wet settling's rule.
+fn bed_key(
     name: &str,
     c: &Case,
     method: BedMethod,
     cache: &Path,
-    quiet: bool,
-) -> anyhow::Result<(BedRecord, bool)> {
+) -> anyhow::Result<(PathBuf, String, Case, SettleOptions)> {
     let mut key_case = c.clone();
     key_case.impeller = None;
     key_case.run = crate::case::RunSection {
@@ -549,6 +558,23 @@ pub fn bed(
         ),
     };
     let dir = cache.join("beds").join(format!("{name}-{:016x}", fnv1a(&inputs)));
+    Ok((dir, inputs, key_case, wet))
+}
+
+/// The bed of the scaled case `c`: from the cache when it holds one made from the same
+/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
+/// record and whether it came from the cache.
+///
+/// # Errors
+/// Settling failed, or the cache cannot be written.
+pub fn bed(
+    name: &str,
+    c: &Case,
+    method: BedMethod,
+    cache: &Path,
+    quiet: bool,
+) -> anyhow::Result<(BedRecord, bool)> {
+    let (dir, inputs, key_case, wet) = bed_key(name, c, method, cache)?;
     let file = dir.join("bed.json");
     if let Ok(text) = std::fs::read_to_string(&file) {
         if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
@@ -730,7 +756,19 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         }
     }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
+    // A wet settling takes hours at s = 1/2, before the run has a manifest: `slurry status OUT`
+    // finds its record through this pointer ([`SETTLING_POINTER`]) meanwhile.
+    let pointer = opts.out.join(SETTLING_POINTER);
+    if matches!(opts.bed, BedMethod::Wet) {
+        let dir = bed_dir(name, &scaled, opts.bed, &opts.cache)?;
+        let dir = std::path::absolute(&dir).unwrap_or(dir);
+        atomic_write_bytes(&pointer, format!("{}\n", dir.display()).as_bytes())
+            .with_context(|| format!("cannot write {}", pointer.display()))?;
+    }
     let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet)?;
+    if pointer.exists() {
+        std::fs::remove_file(&pointer).with_context(|| format!("cannot remove {}", pointer.display()))?;
+    }
     if cached && !opts.quiet {
         eprintln!(
             "bed: from the cache ({} particles, settled in {} steps)",

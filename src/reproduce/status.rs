@@ -23,6 +23,11 @@
 //! - `Po_f`, `Po_c` and `Po` over the last [`report::POWER_REVOLUTIONS`] revolutions after the
 //!   ramp ([`stats::power_averages`], the report's average, with its coverage).
 //!
+//! Before the run, while its bed settles in the fluid (`--bed wet`: hours at s = 1/2, before
+//! any manifest), it reads the settling's record in the bed's cache directory, found through
+//! `OUT/`[`super::SETTLING_POINTER`]: the step against the stopping rule's window, the mean
+//! particle speed against the stop, the time so far and the restarts.
+//!
 //! It only reads: a running reproduction is not disturbed.
 
 use std::fmt::Write as _;
@@ -50,6 +55,10 @@ pub const WINDOW_REVOLUTIONS: f64 = 10.0;
 /// series (a running reproduction without one yet has no rows).
 pub fn status(out: &Path) -> anyhow::Result<String> {
     let file = out.join(super::manifest::FILE);
+    let pointer = out.join(super::SETTLING_POINTER);
+    if !file.exists() && pointer.is_file() {
+        return settling_status(&pointer);
+    }
     if !file.exists() {
         anyhow::bail!(
             "{}: no manifest.json: not the output directory of `slurry reproduce`, nor its archive (a \
@@ -100,6 +109,54 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
         age,
     };
     Ok(describe(&manifest, &ts, &view))
+}
+
+/// The status of a bed settling in the fluid before its run (module docs).
+fn settling_status(pointer: &Path) -> anyhow::Result<String> {
+    let text =
+        std::fs::read_to_string(pointer).with_context(|| format!("cannot read {}", pointer.display()))?;
+    let dir = PathBuf::from(text.trim());
+    let checkpoint = dir.join(crate::settle::SETTLING_CHECKPOINT);
+    let Some(r) = crate::settle::SettlingRecord::beside(&checkpoint) else {
+        return Ok(format!(
+            "settling the bed in the fluid (before the run; {}): no checkpoint yet (the first is written \
+             after {} of settling)\n",
+            dir.display(),
+            duration(crate::settle::SETTLING_CHECKPOINT_EVERY_S)
+        ));
+    };
+    let age = std::fs::metadata(&checkpoint)
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| SystemTime::now().duration_since(t).ok())
+        .map_or_else(String::new, |d| format!("; last checkpoint {} ago", duration(d.as_secs_f64())));
+    // Records written before the rule was kept in them have none.
+    let (window, stop) = if r.stop_speed > 0.0 {
+        (
+            format!(
+                " (the stop is checked from step {}, the settling gives up at {})",
+                r.min_steps, r.max_steps
+            ),
+            format!(", stop below {:.3e} ({:.1} times it)", r.stop_speed, r.mean_speed / r.stop_speed),
+        )
+    } else {
+        (String::new(), String::new())
+    };
+    Ok(format!(
+        "settling the bed in the fluid (before the run; {})\n\
+         progress: step {}{window}{age}\n\
+         mean particle speed {:.3e}{stop}\n\
+         {} of settling in {} session{} ({} restart{}), {:.1} ms per step\n",
+        dir.display(),
+        r.step,
+        r.mean_speed,
+        duration(r.seconds),
+        r.restarts + 1,
+        if r.restarts == 0 { "" } else { "s" },
+        r.restarts,
+        if r.restarts == 1 { "" } else { "s" },
+        if r.step > 0 { r.seconds * 1e3 / r.step as f64 } else { f64::NAN },
+    ))
 }
 
 /// What [`describe`] needs besides the manifest and the series.
@@ -399,6 +456,44 @@ mod tests {
         std::fs::write(dir.path().join("manifest.json"), "{").unwrap();
         let e = format!("{:#}", status(dir.path()).unwrap_err());
         assert!(e.contains("not a reproduction's manifest"), "{e}");
+    }
+
+    /// A bed settling in the fluid, before the run's manifest: status reads the settling's
+    /// record through the pointer the reproduction leaves in its output directory.
+    #[test]
+    fn a_bed_settling_in_the_fluid_is_shown() {
+        let out = tempfile::tempdir().unwrap();
+        let cache = tempfile::tempdir().unwrap();
+        std::fs::write(
+            out.path().join(crate::reproduce::SETTLING_POINTER),
+            format!("{}\n", cache.path().display()),
+        )
+        .unwrap();
+        let text = status(out.path()).unwrap();
+        assert!(
+            text.contains("settling the bed in the fluid") && text.contains("no checkpoint yet"),
+            "{text}"
+        );
+        let r = crate::settle::SettlingRecord {
+            step: 19_600,
+            restarts: 1,
+            seconds: 1200.0,
+            mean_speed: 3.46e-4,
+            stop_speed: 3.2e-5,
+            min_steps: 37_500,
+            max_steps: 150_000,
+        };
+        std::fs::write(cache.path().join(crate::settle::SETTLING_RECORD), serde_json::to_string(&r).unwrap())
+            .unwrap();
+        std::fs::write(cache.path().join(crate::settle::SETTLING_CHECKPOINT), b"").unwrap();
+        let text = status(out.path()).unwrap();
+        for want in [
+            "progress: step 19600 (the stop is checked from step 37500, the settling gives up at 150000)",
+            "mean particle speed 3.460e-4, stop below 3.200e-5 (10.8 times it)",
+            "20 min of settling in 2 sessions (1 restart), 61.2 ms per step",
+        ] {
+            assert!(text.contains(want), "{want:?} not in {text}");
+        }
     }
 
     #[test]
