@@ -99,6 +99,7 @@ fn pbt_ld2_reduced_run() {
         }
     }
     insta::assert_snapshot!("pbt_ld2_scale_0.25", r.snapshot_text());
+    against_the_paper(r);
 
     // The cross-case summary (`--all`) from this one case: its row with the values of its
     // statistics, the five others not run, the PBT's figures and none for the disk.
@@ -195,4 +196,57 @@ fn pbt_ld2_reduced_run() {
     assert!(at > 0, "the checkpoint is a stirred state, not the bed: step {at}");
     assert_eq!(b.start_step, at + 2, "timed from the checkpoint's step {at} after 2 warm-up steps");
     assert!(b.step_ms > 0.0 && b.fluid_ms > 0.0 && b.from.is_some());
+}
+
+/// Writes `target/ci/pbt-ld2-against-the-paper.md`, which `cargo xtask ci` prints after the
+/// tests: each statistic against the paper's (Table 2; the text's 0.37 / 0.31 / 0.26 for
+/// ⟨z_p⟩/H) with its deviation, for this reduced run (0.6 revolution, not steady: its numbers
+/// are not comparable and say so) and for the archived steady runs of the resolution study, the
+/// numbers a reader can compare. No band is asserted (module docs).
+fn against_the_paper(r: &slurry::reproduce::report::Results) {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let paper = slurry::reproduce::paper_case("pbt-ld2").unwrap().paper().unwrap();
+    let value = |v: &serde_json::Value, key: &str| v[key].as_f64();
+    let archived = [
+        "reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200",
+        "reproduce/pbt-ld2/runs/2026-11-27-s0.33-r100",
+    ];
+    let mut rows: Vec<(String, serde_json::Value)> = vec![(
+        format!("this test's run: s = 0.25, t N = {:.1}, not steady (not comparable)", r.revolutions),
+        serde_json::json!({"mean_height": r.mean_height, "po_fluid": r.po_fluid, "po_solids": r.po_solids, "po": r.po}),
+    )];
+    for dir in archived {
+        let text = std::fs::read_to_string(root.join(dir).join("statistics.json")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let label = format!(
+            "[{dir}]: s = {:.3}, t N = {:.0}, {}",
+            v["scale"].as_f64().unwrap(),
+            v["revolutions"].as_f64().unwrap(),
+            if v["steady"].as_bool() == Some(true) { "steady by the report's test" } else { "not steady" }
+        ) + &v["steady_drift"]
+            .as_f64()
+            .map_or_else(String::new, |d| format!(" (drift {d:+.4} over its last 20 revolutions)"));
+        rows.push((label, v));
+    }
+    let mut md = String::from(
+        "# pbt-ld2 against the paper (printed by CI; no band asserted: reproduce/README.md, \"Resolution study\")\n\n\
+         | run | quantity | ours | paper | deviation |\n|---|---|---|---|---|\n",
+    );
+    for (label, v) in &rows {
+        for pv in &paper.values {
+            let (Some(ours), Some(theirs)) = (value(v, &pv.key), pv.paper) else { continue };
+            let ours = if ours.abs() < 5e-4 { 0.0 } else { ours }; // no "-0.000"
+            md.push_str(&format!(
+                "| {label} | {} | {ours:.3} | {theirs} ({}) | {:+.1} % |\n",
+                pv.label,
+                pv.source,
+                100.0 * (ours - theirs) / theirs
+            ));
+        }
+    }
+    let out = root.join("target/ci");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("pbt-ld2-against-the-paper.md"), &md).unwrap();
+    assert_eq!(md.matches("| this test's run").count(), 4, "{md}");
+    assert!(md.contains("| 0.332 | 0.31 ("), "the archived s = 1/4 value: {md}");
 }

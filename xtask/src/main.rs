@@ -128,6 +128,13 @@ fn ci(root: &Path) -> Step {
     c.current_dir(root).args(["test", "--workspace", "--release"]);
     run("test", c)?;
 
+    // The reduced regression's values against the paper, with the archived steady runs'
+    // (issue: "print each value against Table 2 ... with the deviation"; nothing asserted).
+    if let Ok(md) = std::fs::read_to_string(root.join("target/ci/pbt-ld2-against-the-paper.md")) {
+        header("pbt-ld2 against the paper (tests/reproduce_regression.rs)");
+        print!("{md}");
+    }
+
     // The tests built target/release/slurry (its integration tests need the binary).
     header("inlining check of the release binary (SIMD paths compiled for their ISA)");
     bench::inlining_guard(root).map_err(Failed)?;
