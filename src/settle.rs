@@ -335,10 +335,9 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
         None => None,
     };
     let (restarts, seconds_before) = earlier.map_or((0, 0.0), |r| (r.restarts + 1, r.seconds));
-    let (mut steps, mut speed, mut settled) = (earlier.map_or(0, |r| r.step), f64::INFINITY, false);
-    if earlier.is_some() {
-        speed = mean_speed(&c);
-    }
+    let mut steps = earlier.map_or(0, |r| r.step);
+    let mut speed = if earlier.is_some() { mean_speed(&c) } else { f64::INFINITY };
+    let mut settled = false;
     let mut last_checkpoint = Instant::now();
     while steps < opts.max_steps {
         rayon::scope(|_| c.run(every))

@@ -137,7 +137,7 @@ pub fn bench_case(
     // A checkpoint is read and its grid checked before the bed is made (which may take long).
     let g = scaled.grid();
     let checkpoint = from.map(|p| read_from(p, [g.nx, g.ny, g.nz])).transpose()?;
-    let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet)?;
+    let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
     let sched = super::schedule(&scaled, 1.0)?;
     let case = super::stirred_case(&scaled, &bed, &sched);
     let grid = case.grid();

@@ -485,7 +485,7 @@ impl Default for BedMethod {
 }
 
 /// In a reproduction's output directory while its bed settles in the fluid: the path of the
-/// bed's cache directory ([`bed_dir`]), whose settling record `slurry status` reads.
+/// bed's cache directory ([`bed`]), whose settling record `slurry status` reads.
 pub const SETTLING_POINTER: &str = "settling-bed.txt";
 
 /// The wet settling's stopping rule for the scaled case `c`, from the Stokes settling speed
@@ -514,24 +514,23 @@ pub fn wet_settling(c: &Case) -> SettleOptions {
     }
 }
 
-/// The cache directory of the bed of the scaled case `c` settled by `method` (keyed by a hash
-/// of its inputs, [`bed`]), where a wet settling keeps its checkpoint
-/// ([`SETTLING_CHECKPOINT`]) until the bed is stored.
+/// The bed of the scaled case `c`: from the cache when it holds one made from the same
+/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
+/// record and whether it came from the cache. While a wet bed settles (hours at s = 1/2,
+/// before the run has a manifest), `pointer` (if given) holds the path of the bed's cache
+/// directory, where `slurry status` finds the settling's record ([`SETTLING_POINTER`]); it is
+/// removed once the bed is stored.
 ///
 /// # Errors
-/// The case cannot be serialised.
-pub fn bed_dir(name: &str, c: &Case, method: BedMethod, cache: &Path) -> anyhow::Result<PathBuf> {
-    Ok(bed_key(name, c, method, cache)?.0)
-}
-
-/// The bed's cache directory, the inputs it is keyed by, the case it is settled from (without
-/// impeller and run settings) and the wet settling's rule.
-fn bed_key(
+/// Settling failed, or the cache (or the pointer) cannot be written.
+pub fn bed(
     name: &str,
     c: &Case,
     method: BedMethod,
     cache: &Path,
-) -> anyhow::Result<(PathBuf, String, Case, SettleOptions)> {
+    quiet: bool,
+    pointer: Option<&Path>,
+) -> anyhow::Result<(BedRecord, bool)> {
     let mut key_case = c.clone();
     key_case.impeller = None;
     key_case.run = crate::case::RunSection {
@@ -558,23 +557,6 @@ fn bed_key(
         ),
     };
     let dir = cache.join("beds").join(format!("{name}-{:016x}", fnv1a(&inputs)));
-    Ok((dir, inputs, key_case, wet))
-}
-
-/// The bed of the scaled case `c`: from the cache when it holds one made from the same
-/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
-/// record and whether it came from the cache.
-///
-/// # Errors
-/// Settling failed, or the cache cannot be written.
-pub fn bed(
-    name: &str,
-    c: &Case,
-    method: BedMethod,
-    cache: &Path,
-    quiet: bool,
-) -> anyhow::Result<(BedRecord, bool)> {
-    let (dir, inputs, key_case, wet) = bed_key(name, c, method, cache)?;
     let file = dir.join("bed.json");
     if let Ok(text) = std::fs::read_to_string(&file) {
         if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
@@ -583,6 +565,7 @@ pub fn bed(
             }
         }
     }
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let b = match method {
         BedMethod::Dry(opts) => {
             if !quiet {
@@ -602,7 +585,11 @@ pub fn bed(
                 );
             }
             // Hours at s = 1/2: resumable from its checkpoint beside the cached bed.
-            std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+            if let Some(p) = pointer {
+                let abs = std::path::absolute(&dir).unwrap_or_else(|_| dir.clone());
+                atomic_write_bytes(p, format!("{}\n", abs.display()).as_bytes())
+                    .with_context(|| format!("cannot write {}", p.display()))?;
+            }
             wet_bed(&key_case, SettleOptions { quiet, ..wet }, Some(&dir.join(SETTLING_CHECKPOINT)))?
         }
     };
@@ -619,10 +606,12 @@ pub fn bed(
         );
     }
     let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b };
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
     remove_settling_checkpoint(&dir.join(SETTLING_CHECKPOINT))?;
+    if let Some(p) = pointer.filter(|p| p.exists()) {
+        std::fs::remove_file(p).with_context(|| format!("cannot remove {}", p.display()))?;
+    }
     Ok((rec, false))
 }
 
@@ -756,19 +745,8 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         }
     }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
-    // A wet settling takes hours at s = 1/2, before the run has a manifest: `slurry status OUT`
-    // finds its record through this pointer ([`SETTLING_POINTER`]) meanwhile.
     let pointer = opts.out.join(SETTLING_POINTER);
-    if matches!(opts.bed, BedMethod::Wet) {
-        let dir = bed_dir(name, &scaled, opts.bed, &opts.cache)?;
-        let dir = std::path::absolute(&dir).unwrap_or(dir);
-        atomic_write_bytes(&pointer, format!("{}\n", dir.display()).as_bytes())
-            .with_context(|| format!("cannot write {}", pointer.display()))?;
-    }
-    let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet)?;
-    if pointer.exists() {
-        std::fs::remove_file(&pointer).with_context(|| format!("cannot remove {}", pointer.display()))?;
-    }
+    let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet, Some(&pointer))?;
     if cached && !opts.quiet {
         eprintln!(
             "bed: from the cache ({} particles, settled in {} steps)",

@@ -262,8 +262,8 @@ fn write_midplane(
     atomic_write_bytes(&p, xmf.as_bytes()).with_context(|| format!("cannot write {}", p.display()))
 }
 
-/// One row of the comparison with the paper.
-#[derive(Clone, Debug, Serialize)]
+/// One row of the comparison with the paper (`statistics.json`'s `comparison`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Comparison {
     /// Statistic key.
     pub key: String,

@@ -94,11 +94,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     let last_step = ts.last_step(first.steps_per_revolution).unwrap_or(0.0);
     let target = leg_target(&case, manifest.revolutions, manifest.until_steady, last_step);
     let leg = schedule(&case, target)?;
-    let age = std::fs::metadata(&path)
-        .and_then(|m| m.modified())
-        .ok()
-        .and_then(|t| SystemTime::now().duration_since(t).ok())
-        .map(|d| d.as_secs_f64());
+    let age = age_s(&path);
     let view = View {
         steps_per_rev: first.steps_per_revolution,
         ramp_steps: first.ramp_steps as f64,
@@ -125,11 +121,8 @@ fn settling_status(pointer: &Path) -> anyhow::Result<String> {
             duration(crate::settle::SETTLING_CHECKPOINT_EVERY_S)
         ));
     };
-    let age = std::fs::metadata(&checkpoint)
-        .and_then(|m| m.modified())
-        .ok()
-        .and_then(|t| SystemTime::now().duration_since(t).ok())
-        .map_or_else(String::new, |d| format!("; last checkpoint {} ago", duration(d.as_secs_f64())));
+    let age =
+        age_s(&checkpoint).map_or_else(String::new, |a| format!("; last checkpoint {} ago", duration(a)));
     // Records written before the rule was kept in them have none.
     let (window, stop) = if r.stop_speed > 0.0 {
         (
@@ -190,6 +183,12 @@ fn complete_rows(text: &str) -> &str {
         Some(i) => &text[..=i],
         None => "",
     }
+}
+
+/// Seconds since `path` was last written, if it can be told.
+fn age_s(path: &Path) -> Option<f64> {
+    let modified = std::fs::metadata(path).and_then(|m| m.modified()).ok()?;
+    SystemTime::now().duration_since(modified).ok().map(|d| d.as_secs_f64())
 }
 
 /// Seconds as `1.2 h`, `14 min` or `35 s`.

@@ -8,7 +8,12 @@ FIRST_REV..LAST_REV (counted as the report counts them, step / steps_per_revolut
 1000 steps per revolution at s = 1/4): the means of <z_p>/H ((particle_mean_z + 1/2) / NZ: heights from the bottom wall, as the report's), Po_f, Po_c
 and Po; their standard errors from 5-revolution block means (the blocks' spread / sqrt(n),
 which allows for the samples' correlation within a block); the median MLUPS. Then each run's
-difference from the first, with the combined standard error. Prints a Markdown table.
+difference from the first, with the combined standard error, and the paired difference: the
+mean of the 5-revolution blocks' differences with the standard error of their spread (the two
+branches share the trend of a run still rising, which the paired form cancels). Prints a
+Markdown table. Used by the archived branch comparisons
+(reproduce/pbt-ld2/runs/2026-11-26-s0.25-branch, reproduce/disk-ld1/runs/2026-11-27-s0.25-branch);
+the paired line was added on 2026-11-27, the other lines are as the first comparison printed them.
 """
 import csv, math, statistics, sys
 
@@ -56,6 +61,13 @@ def main():
             d, s = b - a, math.hypot(sa, sb)
             cells.append(f"{d:+.4f} ± {s:.4f} ({d / s:+.1f} σ)" if s > 0 else f"{d:+.4f}")
         print(f"| {label} − {base} | " + " | ".join(cells) + " | |")
+        cells = []
+        for _, n, _ in keys:
+            d = [b - a for a, b in zip(res[base][n][2], res[label][n][2])]
+            m = statistics.fmean(d)
+            s = statistics.stdev(d) / math.sqrt(len(d)) if len(d) > 1 else float("nan")
+            cells.append(f"{m:+.4f} ± {s:.4f} ({m / s:+.1f} σ)" if s > 0 else f"{m:+.4f}")
+        print(f"| {label} − {base}, paired blocks | " + " | ".join(cells) + " | |")
     print()
     for label, _ in runs:
         for _, n, _ in keys:
