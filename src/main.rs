@@ -150,8 +150,9 @@ struct ReproduceArgs {
     #[arg(long, value_name = "L", allow_negative_numbers = true)]
     mach_limit: Option<f64>,
     /// Run to steady state: after --revolutions, go on in legs of 10 revolutions until the
-    /// report's steady test passes (drift of ⟨z_p⟩/H over the last 20 revolutions within
-    /// 0.015), to at most CAP revolutions after the ramp (CAP ≥ --revolutions). E.g.
+    /// report's steady test passes (drift of ⟨z_p⟩/H over the last 20 revolutions at most
+    /// 0.005 beyond twice its standard error, and at most 0.015), to at most CAP revolutions
+    /// after the ramp (CAP ≥ --revolutions). E.g.
     /// `--revolutions 100 --until-steady 200`: the paper's "more than 100 revolutions".
     #[arg(long, value_name = "CAP", allow_negative_numbers = true)]
     until_steady: Option<f64>,

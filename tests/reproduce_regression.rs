@@ -29,7 +29,8 @@
 //! resolution study that would support one (`reproduce/README.md`, "Resolution study") has
 //! two scales so far, and they disagree by more than the band: at s = 1/3
 //! (`reproduce/pbt-ld2/runs/2026-11-27-s0.33-r100`) ⟨z_p⟩/H was 0.246 at 100 revolutions,
-//! steady by the test but still rising (drift 0.012 over 20 revolutions), against 0.332 at
+//! steady by its report's test but not by the current one, still rising (drift 0.0119 ± 0.0014
+//! over 20 revolutions), against 0.332 at
 //! s = 1/4; Po_f 1.856 against 1.944, falling with the single-phase impeller's Po.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};

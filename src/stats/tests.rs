@@ -184,3 +184,70 @@ fn stats_compute_and_write_round_trip() {
     assert_eq!(reason.as_str(), stats.steady.reason);
     assert_eq!(f.attr("particles").unwrap().read_scalar::<u64>().unwrap(), 2);
 }
+
+/// Deterministic noise in [−1, 1) (a 64-bit LCG's upper bits), so the tests need no RNG.
+fn noise(n: usize, seed: u64) -> Vec<f64> {
+    let mut x = seed;
+    (0..n)
+        .map(|_| {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            (x >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+        })
+        .collect()
+}
+
+/// A rise of 6e-4 per revolution (0.012 over the window: what the test before 2026-11-27,
+/// `|drift| ≤ 0.015`, passed, as with disk-ld2 at s = 1/4 after 130 revolutions) with
+/// fluctuations far smaller than it: resolved, so not steady; the same fluctuations without
+/// the rise are.
+#[test]
+fn a_slow_rise_above_its_noise_is_not_steady() {
+    let e = noise(801, 7);
+    let rise: Vec<(f64, f64)> = (0..=800).map(|k| 0.05 * k as f64).map(|r| (r, 0.3 + 6e-4 * r)).collect();
+    let noisy: Vec<(f64, f64)> = rise.iter().zip(&e).map(|(&(r, v), e)| (r, v + 0.003 * e)).collect();
+    let t = steady_state(&noisy, 20.0, 0.005);
+    assert!((t.drift - 0.012).abs() < 1.5e-3 && t.drift_se < 1.5e-3, "{t:?}");
+    assert!(!t.steady && t.reason.contains("by more than twice its standard error"), "{}", t.reason);
+    let flat: Vec<(f64, f64)> = noisy.iter().map(|&(r, v)| (r, v - 6e-4 * r)).collect();
+    let t = steady_state(&flat, 20.0, 0.005);
+    assert!(t.steady && t.drift.abs() < 2e-3, "{}", t.reason);
+    // Without fluctuations the standard error is 0 (to rounding) and the test is |drift| ≤ tol.
+    let t = steady_state(&rise, 20.0, 0.005);
+    assert!(t.drift_se < 1e-12 && !t.steady, "{t:?}");
+    assert!(steady_state(&rise, 20.0, 0.0121).steady);
+}
+
+/// A slow oscillation (period 23 revolutions, amplitude 0.01) about a constant level: the
+/// least-squares drift over the window exceeds the tolerance, but by less than twice the
+/// standard error the batch means give it, so it counts as steady; scaled up so that the
+/// drift passes the cap (3 × tolerance) it does not, however large its standard error.
+#[test]
+fn fluctuations_are_allowed_for_up_to_the_cap() {
+    let wave = |a: f64| -> Vec<(f64, f64)> {
+        (0..=800).map(|k| 0.05 * k as f64).map(|r| (r, 0.3 + a * (2.0 * PI * r / 23.0).sin())).collect()
+    };
+    let t = steady_state(&wave(0.01), 20.0, 0.005);
+    assert!(t.drift.abs() > 0.005 && t.drift.abs() - 2.0 * t.drift_se <= 0.005, "{t:?}");
+    assert!(t.steady && t.reason.contains("twice its standard error"), "{}", t.reason);
+    let big = steady_state(&wave(0.03), 20.0, 0.005);
+    assert!(big.drift.abs() > 0.015 && !big.steady && big.reason.contains("the cap 1.500e-2"), "{big:?}");
+}
+
+/// On white noise of amplitude σ_v the batch-mean standard error of the slope matches the
+/// least-squares one, `σ_v / √Σ(rev − r̄)²`, within what ten batches can tell (a χ with 8
+/// degrees of freedom: 0.5–1.5 of it).
+#[test]
+fn the_drift_standard_error_matches_white_noise() {
+    for seed in [1, 2, 3] {
+        let e = noise(801, seed);
+        let series: Vec<(f64, f64)> =
+            (0..=800).map(|k| 0.05 * k as f64).zip(&e).map(|(r, e)| (r, 0.3 + 0.01 * e)).collect();
+        let t = steady_state(&series, 20.0, 0.005);
+        let w: Vec<f64> = series.iter().map(|s| s.0).filter(|&r| r >= 20.0 - 1e-9).collect();
+        let rbar = w.iter().sum::<f64>() / w.len() as f64;
+        let sxx: f64 = w.iter().map(|r| (r - rbar).powi(2)).sum();
+        let expected = 0.01 / 3f64.sqrt() / sxx.sqrt() * 20.0;
+        let ratio = t.drift_se / expected;
+        assert!((0.5..1.5).contains(&ratio), "seed {seed}: {} against {expected}", t.drift_se);
+    }
+}
