@@ -115,6 +115,74 @@ pub struct ContactOptions {
     pub lubrication_substeps: Option<usize>,
 }
 
+/// A benchmarked case made ready to couple: the stirred case at its scale on its cached bed,
+/// its output interval, and the checkpoint to start from, if any (read before the bed is
+/// made, which may take long).
+struct Setup {
+    case: crate::case::Case,
+    output_every: u64,
+    checkpoint: Option<(String, CoupledState<f32>)>,
+}
+
+impl Setup {
+    /// Case `name` at `scale` on its settled bed, with the checkpoint at `from` read and its
+    /// grid checked.
+    fn new(name: &str, scale: f64, cache: &Path, from: Option<&Path>, quiet: bool) -> anyhow::Result<Self> {
+        let pc = super::paper_case(name)?;
+        let scaled = super::scale_case(&pc.case()?, scale)?;
+        let g = scaled.grid();
+        let checkpoint = from.map(|p| read_from(p, [g.nx, g.ny, g.nz])).transpose()?;
+        let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
+        let sched = super::schedule(&scaled, 1.0)?;
+        let case = super::stirred_case(&scaled, &bed, &sched);
+        Ok(Self { case, output_every: sched.output_every, checkpoint })
+    }
+
+    /// A fluid of the case's grid in its initial state.
+    fn fluid(&self) -> anyhow::Result<Fluid<f32>> {
+        let mut f = Fluid::<f32>::new(self.case.grid(), self.case.fluid_params(), self.case.boundaries())?;
+        f.initialize(|x, y, z| self.case.initial_state(x, y, z));
+        Ok(f)
+    }
+
+    /// The coupled solver with the contact scheme changed by `contact`, restored from the
+    /// checkpoint if there is one (`from` names it in errors); its coupling parameters.
+    fn couple(
+        &self,
+        contact: ContactOptions,
+        from: Option<&Path>,
+    ) -> anyhow::Result<(Coupled<f32>, crate::coupling::CouplingParams)> {
+        let case = &self.case;
+        let inits = case.particle_inits().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
+        let impeller = case.impeller_setup().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
+        let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
+        bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
+        let mut params = case.coupling_params();
+        if let Some(p) = params.contacts.as_mut() {
+            p.substeps = contact.substeps.unwrap_or(p.substeps);
+            p.lubrication_limiter |= contact.limiter;
+            p.lubrication_substeps = contact.lubrication_substeps.unwrap_or(p.lubrication_substeps);
+        }
+        let mut c =
+            Coupled::new(self.fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
+        if let (Some(path), Some((written_for, state))) = (from, &self.checkpoint) {
+            // Any contact scheme, any length of run; the same case, scale and bed.
+            if !case.same_except_contact_scheme(written_for) {
+                anyhow::bail!(
+                    "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
+                    path.display()
+                );
+            }
+            c.restore(state)
+                .map_err(|e| anyhow::anyhow!("--from {}: cannot restore: {e}", path.display()))?;
+        }
+        if let Some(skin) = contact.skin {
+            c.set_contact_skin(skin);
+        }
+        Ok((c, params))
+    }
+}
+
 /// Measures case `name` at scale `scale`, from its settled bed or, with `from`, from a run's
 /// checkpoint (module docs).
 ///
@@ -132,24 +200,12 @@ pub fn bench_case(
     from: Option<&Path>,
     quiet: bool,
 ) -> anyhow::Result<CoupledBench> {
-    let pc = super::paper_case(name)?;
-    let scaled = super::scale_case(&pc.case()?, scale)?;
-    // A checkpoint is read and its grid checked before the bed is made (which may take long).
-    let g = scaled.grid();
-    let checkpoint = from.map(|p| read_from(p, [g.nx, g.ny, g.nz])).transpose()?;
-    let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
-    let sched = super::schedule(&scaled, 1.0)?;
-    let case = super::stirred_case(&scaled, &bed, &sched);
+    let setup = Setup::new(name, scale, cache, from, quiet)?;
+    let case = &setup.case;
     let grid = case.grid();
-    let inits = case.particle_inits().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
-    let impeller = case.impeller_setup().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
-    let new_fluid = || -> anyhow::Result<Fluid<f32>> {
-        let mut f = Fluid::<f32>::new(grid, case.fluid_params(), case.boundaries())?;
-        f.initialize(|x, y, z| case.initial_state(x, y, z));
-        Ok(f)
-    };
+    let particles = case.particle_inits().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?.len();
     // Fluid alone, force field on (the coupled kernel reads it too).
-    let mut fluid = new_fluid()?;
+    let mut fluid = setup.fluid()?;
     fluid.enable_force_field();
     fluid.run(4);
     let fluid_steps = steps.max(2) & !1; // even: the AA parity stays aligned
@@ -158,29 +214,7 @@ pub fn bench_case(
     let fluid_ms = t.elapsed().as_secs_f64() * 1e3 / fluid_steps as f64;
     drop(fluid);
 
-    let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
-    bodies.extend(impeller.as_ref().map(ImpellerSetup::body));
-    let mut params = case.coupling_params();
-    if let Some(p) = params.contacts.as_mut() {
-        p.substeps = contact.substeps.unwrap_or(p.substeps);
-        p.lubrication_limiter |= contact.limiter;
-        p.lubrication_substeps = contact.lubrication_substeps.unwrap_or(p.lubrication_substeps);
-    }
-    let mut c =
-        Coupled::new(new_fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
-    if let (Some(path), Some((written_for, state))) = (from, checkpoint) {
-        // Any contact scheme, any length of run; the same case, scale and bed.
-        if !case.same_except_contact_scheme(&written_for) {
-            anyhow::bail!(
-                "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
-                path.display()
-            );
-        }
-        c.restore(&state).map_err(|e| anyhow::anyhow!("--from {}: cannot restore: {e}", path.display()))?;
-    }
-    if let Some(skin) = contact.skin {
-        c.set_contact_skin(skin);
-    }
+    let (mut c, params) = setup.couple(contact, from)?;
     for _ in 0..warmup {
         c.step().map_err(|e| anyhow::anyhow!("warm-up step: {e}"))?;
     }
@@ -201,7 +235,7 @@ pub fn bench_case(
     let t = Instant::now();
     let _ = c.fluid().health(case.run.mach_limit);
     let _ = c.fluid().wall_momentum_exchange([0.0; 3]);
-    let output_ms = t.elapsed().as_secs_f64() * 1e3 / sched.output_every as f64;
+    let output_ms = t.elapsed().as_secs_f64() * 1e3 / setup.output_every as f64;
     let step_ms = per(timings.total());
     let nodes = grid.nodes() as f64;
     Ok(CoupledBench {
@@ -210,7 +244,7 @@ pub fn bench_case(
         threads: rayon::current_num_threads(),
         precision: "f32".into(),
         grid: [grid.nx, grid.ny, grid.nz],
-        particles: inits.len(),
+        particles,
         markers: c.marker_count(),
         fluid_ms,
         step_ms,
@@ -268,4 +302,153 @@ fn read_from(path: &Path, [nx, ny, nz]: [usize; 3]) -> anyhow::Result<(String, C
         );
     };
     Ok((cp.case, CoupledState { fluid: cp.state, bodies }))
+}
+
+/// One contact scheme of a [`shadow`] comparison.
+#[derive(Clone, Debug)]
+pub struct ShadowScheme {
+    /// Its name in the output.
+    pub label: String,
+    /// The scheme (sub-steps, lubrication sub-steps, limiter; the skin changes no load).
+    pub contact: ContactOptions,
+}
+
+/// The free particles of one scheme of a [`shadow`] comparison, at the recorded steps.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShadowRun {
+    /// The scheme's name.
+    pub label: String,
+    /// Contact sub-steps per fluid step.
+    pub contact_substeps: usize,
+    /// Lubrication sub-steps per contact sub-step.
+    pub lubrication_substeps: usize,
+    /// Whether the lubrication limiter was on.
+    pub lubrication_limiter: bool,
+    /// The steps after the checkpoint at which the states were recorded.
+    pub at: Vec<u64>,
+    /// Per recorded step, per free particle: position, velocity, angular velocity (world).
+    pub states: Vec<Vec<[f64; 9]>>,
+    /// Per step, the particles' mean vertical velocity `⟨w_p⟩`.
+    pub mean_w: Vec<f64>,
+    /// Wall-clock seconds of the steps.
+    pub seconds: f64,
+}
+
+/// Runs the coupled solver of case `name` at `scale` from the checkpoint `from` under each of
+/// `schemes` for `at.last()` steps, recording the free particles' states after each step
+/// count of `at` (ascending) and their mean vertical velocity after every step: the
+/// trajectories of one suspension under several contact schemes, side by side, before the
+/// flow's chaos separates them (the differences to the finest scheme, [`shadow_differences`],
+/// measure each scheme's error where it is used). Deterministic: the same bits for any thread
+/// count.
+///
+/// # Errors
+/// As [`bench_case`]; `at` empty or not ascending; a step that fails.
+pub fn shadow(
+    name: &str,
+    scale: f64,
+    cache: &Path,
+    from: &Path,
+    at: &[u64],
+    schemes: &[ShadowScheme],
+    quiet: bool,
+) -> anyhow::Result<Vec<ShadowRun>> {
+    if at.is_empty() || at.windows(2).any(|w| w[0] >= w[1]) {
+        anyhow::bail!("the recorded step counts must be ascending and at least one: {at:?}");
+    }
+    let setup = Setup::new(name, scale, cache, Some(from), quiet)?;
+    let mut runs = Vec::with_capacity(schemes.len());
+    for scheme in schemes {
+        let (mut c, params) = setup.couple(scheme.contact, Some(from))?;
+        let free: Vec<usize> = (0..c.bodies().len()).filter(|&b| c.bodies()[b].is_free()).collect();
+        let mut states = Vec::with_capacity(at.len());
+        let mut mean_w = Vec::with_capacity(at[at.len() - 1] as usize);
+        let t = Instant::now();
+        for step in 1..=at[at.len() - 1] {
+            c.step().map_err(|e| anyhow::anyhow!("{}: step {step}: {e}", scheme.label))?;
+            let bodies = c.bodies();
+            mean_w.push(free.iter().map(|&b| bodies[b].velocity.z).sum::<f64>() / free.len().max(1) as f64);
+            if at.contains(&step) {
+                states.push(
+                    free.iter()
+                        .map(|&b| {
+                            let (x, v, w) =
+                                (bodies[b].position, bodies[b].velocity, bodies[b].angular_velocity);
+                            [x.x, x.y, x.z, v.x, v.y, v.z, w.x, w.y, w.z]
+                        })
+                        .collect(),
+                );
+            }
+        }
+        runs.push(ShadowRun {
+            label: scheme.label.clone(),
+            contact_substeps: params.contacts.map_or(0, |p| p.substeps),
+            lubrication_substeps: params.contacts.map_or(0, |p| p.lubrication_substeps),
+            lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
+            at: at.to_vec(),
+            states,
+            mean_w,
+            seconds: t.elapsed().as_secs_f64(),
+        });
+    }
+    Ok(runs)
+}
+
+/// How one [`ShadowRun`] differs from a reference run of the same suspension, per recorded
+/// step: over the free particles, the root mean square of the position difference `|Δx|`, of
+/// the velocity difference `|Δv|` and of the angular-velocity difference `|Δω|`, and the mean
+/// height difference `⟨Δz⟩` (a systematic lift or settling); over all steps, the mean of
+/// `⟨w_p⟩ − ⟨w_p⟩_ref`.
+#[derive(Clone, Debug, Serialize)]
+pub struct ShadowDiff {
+    /// The run's scheme.
+    pub label: String,
+    /// The recorded step counts.
+    pub at: Vec<u64>,
+    /// RMS `|Δx|` per recorded step.
+    pub rms_position: Vec<f64>,
+    /// RMS `|Δv|` per recorded step.
+    pub rms_velocity: Vec<f64>,
+    /// RMS `|Δω|` per recorded step.
+    pub rms_angular: Vec<f64>,
+    /// `⟨Δz⟩` per recorded step.
+    pub mean_dz: Vec<f64>,
+    /// The mean over all steps of the difference of the particles' mean vertical velocity.
+    pub mean_dw: f64,
+}
+
+/// [`ShadowDiff`] of every run against `runs[reference]`.
+///
+/// # Panics
+/// `reference` out of range, or runs recorded at other steps or with other particles.
+pub fn shadow_differences(runs: &[ShadowRun], reference: usize) -> Vec<ShadowDiff> {
+    let r = &runs[reference];
+    runs.iter()
+        .map(|run| {
+            assert_eq!(run.at, r.at, "{}: recorded at other steps than the reference", run.label);
+            let rms = |k: std::ops::Range<usize>, i: usize| {
+                let (a, b) = (&run.states[i], &r.states[i]);
+                assert_eq!(a.len(), b.len(), "{}: another number of particles", run.label);
+                let sum: f64 =
+                    a.iter().zip(b).map(|(p, q)| k.clone().map(|c| (p[c] - q[c]).powi(2)).sum::<f64>()).sum();
+                (sum / a.len().max(1) as f64).sqrt()
+            };
+            let n = run.at.len();
+            ShadowDiff {
+                label: run.label.clone(),
+                at: run.at.clone(),
+                rms_position: (0..n).map(|i| rms(0..3, i)).collect(),
+                rms_velocity: (0..n).map(|i| rms(3..6, i)).collect(),
+                rms_angular: (0..n).map(|i| rms(6..9, i)).collect(),
+                mean_dz: (0..n)
+                    .map(|i| {
+                        let (a, b) = (&run.states[i], &r.states[i]);
+                        a.iter().zip(b).map(|(p, q)| p[2] - q[2]).sum::<f64>() / a.len().max(1) as f64
+                    })
+                    .collect(),
+                mean_dw: run.mean_w.iter().zip(&r.mean_w).map(|(a, b)| a - b).sum::<f64>()
+                    / run.mean_w.len().max(1) as f64,
+            }
+        })
+        .collect()
 }

@@ -235,3 +235,41 @@ fn the_leg_of_a_run_is_found_by_its_last_step() {
         assert_eq!(leg_target(&c, 100.0, None, (end + 66) as f64), 100.0, "s = {s}");
     }
 }
+
+/// `shadow_differences`: RMS differences and the mean height and vertical-velocity offsets
+/// of two hand-made runs, and zero against itself.
+#[test]
+fn shadow_differences_of_known_states() {
+    use bench::{shadow_differences, ShadowRun};
+    let run = |label: &str, dz: f64, dv: f64, w: f64| ShadowRun {
+        label: label.into(),
+        contact_substeps: 8,
+        lubrication_substeps: 1,
+        lubrication_limiter: false,
+        at: vec![1, 2],
+        states: vec![
+            vec![
+                [0.0, 0.0, 1.0 + dz, 0.0, dv, 0.0, 0.0, 0.0, 0.0],
+                [3.0, 0.0, 2.0 - dz, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            ],
+            vec![
+                [0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                [3.0, 0.0, 2.0 + 2.0 * dz, 0.0, 0.0, 0.0, 0.0, dv, 0.0],
+            ],
+        ],
+        mean_w: vec![w, 2.0 * w],
+        seconds: 1.0,
+    };
+    let runs = [run("ref", 0.0, 0.0, 0.0), run("a", 0.1, 0.2, 0.3)];
+    let d = shadow_differences(&runs, 0);
+    assert_eq!(d[0].rms_position, vec![0.0, 0.0]);
+    assert_eq!((d[0].mean_dz[1], d[0].mean_dw), (0.0, 0.0));
+    let a = &d[1];
+    // Step 1: Δz = ±0.1 (RMS 0.1, mean 0); Δv on one of two particles (RMS 0.2/√2).
+    assert!((a.rms_position[0] - 0.1).abs() < 1e-12 && a.mean_dz[0].abs() < 1e-12, "{a:?}");
+    assert!((a.rms_velocity[0] - 0.2 / 2f64.sqrt()).abs() < 1e-12, "{a:?}");
+    // Step 2: Δz = 0.2 on one particle (RMS 0.2/√2, mean 0.1), Δω on it.
+    assert!((a.rms_position[1] - 0.2 / 2f64.sqrt()).abs() < 1e-12 && (a.mean_dz[1] - 0.1).abs() < 1e-12);
+    assert!((a.rms_angular[1] - 0.2 / 2f64.sqrt()).abs() < 1e-12 && a.rms_velocity[1] == 0.0);
+    assert!((a.mean_dw - 0.45).abs() < 1e-12, "{}", a.mean_dw);
+}
