@@ -330,6 +330,11 @@ pub struct ShadowRun {
     pub states: Vec<Vec<[f64; 9]>>,
     /// Per step, the particles' mean vertical velocity `⟨w_p⟩`.
     pub mean_w: Vec<f64>,
+    /// Per step, the elastic energy stored in the contacts at the last sub-step
+    /// ([`crate::contact::ContactStats::elastic_energy`]): how deep the surfaces press.
+    pub elastic_energy: Vec<f64>,
+    /// Per step, the interacting marker pairs at the last sub-step.
+    pub marker_pairs: Vec<usize>,
     /// Wall-clock seconds of the steps.
     pub seconds: f64,
 }
@@ -363,11 +368,15 @@ pub fn shadow(
         let free: Vec<usize> = (0..c.bodies().len()).filter(|&b| c.bodies()[b].is_free()).collect();
         let mut states = Vec::with_capacity(at.len());
         let mut mean_w = Vec::with_capacity(at[at.len() - 1] as usize);
+        let (mut elastic_energy, mut marker_pairs) = (Vec::new(), Vec::new());
         let t = Instant::now();
         for step in 1..=at[at.len() - 1] {
             c.step().map_err(|e| anyhow::anyhow!("{}: step {step}: {e}", scheme.label))?;
             let bodies = c.bodies();
             mean_w.push(free.iter().map(|&b| bodies[b].velocity.z).sum::<f64>() / free.len().max(1) as f64);
+            let stats = c.contacts().map(|k| *k.stats()).unwrap_or_default();
+            elastic_energy.push(stats.elastic_energy);
+            marker_pairs.push(stats.marker_pairs);
             if at.contains(&step) {
                 states.push(
                     free.iter()
@@ -388,6 +397,8 @@ pub fn shadow(
             at: at.to_vec(),
             states,
             mean_w,
+            elastic_energy,
+            marker_pairs,
             seconds: t.elapsed().as_secs_f64(),
         });
     }

@@ -258,6 +258,8 @@ fn shadow_differences_of_known_states() {
             ],
         ],
         mean_w: vec![w, 2.0 * w],
+        elastic_energy: vec![0.0; 2],
+        marker_pairs: vec![0; 2],
         seconds: 1.0,
     };
     let runs = [run("ref", 0.0, 0.0, 0.0), run("a", 0.1, 0.2, 0.3)];
