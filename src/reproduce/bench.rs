@@ -17,7 +17,7 @@
 //! The per-output work of a run (the health check and the walls' momentum exchange behind the
 //! torque balance) is timed once and divided by the case's output interval: `output_ms`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -121,7 +121,8 @@ pub struct ContactOptions {
 struct Setup {
     case: crate::case::Case,
     output_every: u64,
-    checkpoint: Option<(String, CoupledState<f32>)>,
+    /// The checkpoint's path, the fingerprint it was written with, and its state.
+    checkpoint: Option<(PathBuf, String, CoupledState<f32>)>,
 }
 
 impl Setup {
@@ -131,7 +132,9 @@ impl Setup {
         let pc = super::paper_case(name)?;
         let scaled = super::scale_case(&pc.case()?, scale)?;
         let g = scaled.grid();
-        let checkpoint = from.map(|p| read_from(p, [g.nx, g.ny, g.nz])).transpose()?;
+        let checkpoint = from
+            .map(|p| read_from(p, [g.nx, g.ny, g.nz]).map(|(case, state)| (p.to_path_buf(), case, state)))
+            .transpose()?;
         let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
         let sched = super::schedule(&scaled, 1.0)?;
         let case = super::stirred_case(&scaled, &bed, &sched);
@@ -146,11 +149,10 @@ impl Setup {
     }
 
     /// The coupled solver with the contact scheme changed by `contact`, restored from the
-    /// checkpoint if there is one (`from` names it in errors); its coupling parameters.
+    /// checkpoint if there is one; its coupling parameters.
     fn couple(
         &self,
         contact: ContactOptions,
-        from: Option<&Path>,
     ) -> anyhow::Result<(Coupled<f32>, crate::coupling::CouplingParams)> {
         let case = &self.case;
         let inits = case.particle_inits().map_err(|k| anyhow::anyhow!("invalid case: {k}"))?;
@@ -165,7 +167,7 @@ impl Setup {
         }
         let mut c =
             Coupled::new(self.fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
-        if let (Some(path), Some((written_for, state))) = (from, &self.checkpoint) {
+        if let Some((path, written_for, state)) = &self.checkpoint {
             // Any contact scheme, any length of run; the same case, scale and bed.
             if !case.same_except_contact_scheme(written_for) {
                 anyhow::bail!(
@@ -214,7 +216,7 @@ pub fn bench_case(
     let fluid_ms = t.elapsed().as_secs_f64() * 1e3 / fluid_steps as f64;
     drop(fluid);
 
-    let (mut c, params) = setup.couple(contact, from)?;
+    let (mut c, params) = setup.couple(contact)?;
     for _ in 0..warmup {
         c.step().map_err(|e| anyhow::anyhow!("warm-up step: {e}"))?;
     }
@@ -364,7 +366,7 @@ pub fn shadow(
     let setup = Setup::new(name, scale, cache, Some(from), quiet)?;
     let mut runs = Vec::with_capacity(schemes.len());
     for scheme in schemes {
-        let (mut c, params) = setup.couple(scheme.contact, Some(from))?;
+        let (mut c, params) = setup.couple(scheme.contact)?;
         let free: Vec<usize> = (0..c.bodies().len()).filter(|&b| c.bodies()[b].is_free()).collect();
         let mut states = Vec::with_capacity(at.len());
         let mut mean_w = Vec::with_capacity(at[at.len() - 1] as usize);

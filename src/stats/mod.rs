@@ -412,12 +412,8 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
     let cutoff = last.0 - window_revs - REV_EPS * window_revs.abs().max(1.0);
     let w: Vec<(f64, f64)> = series.iter().copied().filter(|s| s.0 >= cutoff).collect();
     t.samples = w.len();
-    let n = w.len() as f64;
-    let (rbar, vbar) = (w.iter().map(|s| s.0).sum::<f64>() / n, w.iter().map(|s| s.1).sum::<f64>() / n);
-    let sxx: f64 = w.iter().map(|s| (s.0 - rbar).powi(2)).sum();
-    let sxy: f64 = w.iter().map(|s| (s.0 - rbar) * (s.1 - vbar)).sum();
-    if w.len() >= 2 && sxx > 0.0 {
-        t.slope_per_rev = sxy / sxx;
+    if let Some(fit) = LineFit::of(&w) {
+        t.slope_per_rev = fit.slope;
         t.drift = t.slope_per_rev * window_revs;
         t.drift_se = drift_standard_error(&w, last.0 - window_revs, window_revs);
     }
@@ -458,8 +454,8 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
     }
     t.steady = failed.is_empty();
     t.reason = if t.steady {
-        // The slope too: a run can pass while still creeping (disk-ld1 at s = 1/4 passed at
-        // 5e-4 per revolution), and the reader should see by how much.
+        // The slope too: a run can pass while still creeping (within the tolerance, or on its
+        // noise allowance), and the reader should see by how much.
         format!(
             "steady: drift {:.3e} ± {:.1e} over the last {window_revs} revolutions (slope {:.3e} per revolution, \
              {} samples) within the tolerance {tolerance:.3e} and twice its standard error",
@@ -479,6 +475,31 @@ pub const STEADY_BATCHES: usize = 10;
 /// large the standard error.
 pub const STEADY_DRIFT_CAP: f64 = 3.0;
 
+/// The least-squares line `v ≈ v̄ + slope (r − r̄)` through points `(r, v)`.
+struct LineFit {
+    slope: f64,
+    /// `Σ (r − r̄)²`.
+    sxx: f64,
+    /// The residuals' sum of squares.
+    rss: f64,
+}
+
+impl LineFit {
+    /// The fit, or `None` with fewer than two distinct `r`.
+    fn of(points: &[(f64, f64)]) -> Option<Self> {
+        let n = points.len() as f64;
+        let rbar = points.iter().map(|p| p.0).sum::<f64>() / n;
+        let vbar = points.iter().map(|p| p.1).sum::<f64>() / n;
+        let sxx: f64 = points.iter().map(|p| (p.0 - rbar).powi(2)).sum();
+        if points.len() < 2 || sxx <= 0.0 {
+            return None;
+        }
+        let slope = points.iter().map(|p| (p.0 - rbar) * (p.1 - vbar)).sum::<f64>() / sxx;
+        let rss = points.iter().map(|p| (p.1 - vbar - slope * (p.0 - rbar)).powi(2)).sum();
+        Some(Self { slope, sxx, rss })
+    }
+}
+
 /// The standard error of the drift of the samples `w` over the window `[from, from + window]`
 /// ([`steady_state`]): the line fitted to [`STEADY_BATCHES`] batch means, `σ_β · window`; NaN
 /// with fewer than three batches holding samples.
@@ -493,18 +514,10 @@ fn drift_standard_error(w: &[(f64, f64)], from: f64, window: f64) -> f64 {
     }
     let means: Vec<(f64, f64)> =
         sums.iter().filter(|b| b.2 > 0).map(|b| (b.0 / b.2 as f64, b.1 / b.2 as f64)).collect();
-    let n = means.len();
-    if n < 3 {
-        return f64::NAN;
+    match LineFit::of(&means) {
+        Some(fit) if means.len() >= 3 => (fit.rss / (means.len() - 2) as f64 / fit.sxx).sqrt() * window,
+        _ => f64::NAN,
     }
-    let (rbar, vbar) = (
-        means.iter().map(|m| m.0).sum::<f64>() / n as f64,
-        means.iter().map(|m| m.1).sum::<f64>() / n as f64,
-    );
-    let sxx: f64 = means.iter().map(|m| (m.0 - rbar).powi(2)).sum();
-    let beta = means.iter().map(|m| (m.0 - rbar) * (m.1 - vbar)).sum::<f64>() / sxx;
-    let rss: f64 = means.iter().map(|m| (m.1 - vbar - beta * (m.0 - rbar)).powi(2)).sum();
-    (rss / ((n - 2) as f64) / sxx).sqrt() * window
 }
 
 /// Settings of [`Stats::compute`].
