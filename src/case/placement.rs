@@ -219,6 +219,12 @@ fn gjk_apart(a: &Convex, b: &Convex, clearance: f64) -> bool {
         }
         simplex.push(w);
         let (closest, kept) = closest_on_simplex(&simplex);
+        // A tetrahedron whose closest point lies inside it encloses the origin: the bodies
+        // overlap (or touch to within round-off, where `v` is a rounding residue that a
+        // clearance of 0 would not stop). Not apart, and no fifth vertex.
+        if kept.len() == 4 {
+            return false;
+        }
         v = closest;
         simplex = kept;
     }
@@ -638,6 +644,55 @@ mod tests {
         assert!(d > 2.0, "sampled {d}");
         assert!(apart(&a, &b, d - 1.3), "sampled {d}");
         assert!(!apart(&a, &b, d + 1e-9), "sampled {d}");
+    }
+
+    /// Whether `p` lies inside `x` by more than `margin`.
+    fn inside(x: &Convex, p: &Vec3, margin: f64) -> bool {
+        match *x {
+            Convex::Sphere { c, r } => (p - c).norm() < r - margin,
+            Convex::Cylinder { c, a, r, h } => {
+                let along = (p - c).dot(&a);
+                along.abs() < h - margin && (p - c - a * along).norm() < r - margin
+            }
+        }
+    }
+
+    /// Clearance 0 (the overlap check of explicit particles, e.g. a settled bed's): touching and
+    /// interpenetrating pairs, where GJK's simplex can enclose the origin, are decided without a
+    /// panic, and an overlap is never called apart. (Before 2026-11-27 a tetrahedron enclosing
+    /// the origin to within round-off grew to a fifth vertex and indexed out of bounds: the
+    /// full-scale pbt-ld1 bed, 1644 cylinders with d = 12, hit it.)
+    #[test]
+    fn clearance_zero_decides_touching_and_overlapping_pairs() {
+        let mut rng = SplitMix64(11);
+        let shapes = [
+            ShapeDims::Cylinder { diameter: 12.0, length: 12.0 },
+            ShapeDims::Cylinder { diameter: 12.0, length: 48.0 },
+            ShapeDims::Sphere { diameter: 12.0 },
+        ];
+        let mut overlapping = 0;
+        for k in 0..20_000 {
+            let (sa, sb) = (shapes[k % 3], shapes[(k / 3) % 3]);
+            let (qa, qb) = (random_rotation(&mut rng), random_rotation(&mut rng));
+            let a = sa.at(Vec3::zeros(), &qa);
+            // Centres from coincident to just beyond contact.
+            let reach = a.bounding_radius() + sb.bounding_radius();
+            let dir = Vec3::from(rng.vec3(-1.0, 1.0));
+            let dir = if dir.norm() > 1e-3 { dir.normalize() } else { Vec3::x() };
+            let b = sb.at(dir * rng.uniform(0.0, reach), &qb);
+            let apart0 = apart(&a, &b, 0.0);
+            // A point of b's axis (inside b) strictly inside a: the bodies certainly overlap.
+            let (p2, q2, _) = b.capsule();
+            if (0..=16).any(|i| inside(&a, &(p2 + (q2 - p2) * (i as f64 / 16.0)), 1e-6)) {
+                overlapping += 1;
+                assert!(!apart0, "pair {k}: overlapping bodies called apart");
+            }
+            // Apart at 0 must agree with a certified positive gap at a tiny clearance or not.
+            if apart(&a, &b, 1e-9) {
+                assert!(apart0, "pair {k}");
+            }
+        }
+        assert!(overlapping > 1000, "{overlapping}");
     }
 
     #[test]

@@ -21,8 +21,10 @@ impl Geometry {
         loop {
             let dims = [0, 1, 2].map(|a| {
                 let n = ((hi[a] - lo[a]) / edge).floor();
+                // Saturating: positions blown up by an instability (≥ 1e19 cells) must not wrap
+                // to 0 cells; the edge then grows until the grid fits.
                 if n.is_finite() && n >= 0.0 {
-                    n as usize + 1
+                    (n as usize).saturating_add(1)
                 } else {
                     1
                 }

@@ -560,7 +560,8 @@ pub fn bed(
     let file = dir.join("bed.json");
     if let Ok(text) = std::fs::read_to_string(&file) {
         if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
-            if rec.inputs == inputs {
+            // A dry bed cached before `dry_bed` relaxed its overlaps may hold some: settle again.
+            if rec.inputs == inputs && crate::settle::admissible(&key_case, &rec.bed.particles).is_ok() {
                 return Ok((rec, true));
             }
         }
@@ -595,9 +596,14 @@ pub fn bed(
     };
     if !quiet {
         eprintln!(
-            "bed: {} after {} steps ({:.0} s{}), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
+            "bed: {} after {} steps{} ({:.0} s{}), mean centre height {:.2}, mean speed {:.1e}, largest {:.1e}",
             if b.settled { "settled" } else { "NOT settled (step limit)" },
             b.steps,
+            if b.relax_steps > 0 {
+                format!(" and {} relaxing at the case's gravity (overlaps)", b.relax_steps)
+            } else {
+                String::new()
+            },
             b.seconds,
             if b.restarts > 0 { format!(", {} restarts", b.restarts) } else { String::new() },
             b.mean_height,

@@ -197,6 +197,7 @@ fn cached_bed_reads_back_bitwise() {
             mean_height: 9.94,
             seconds: 1.0,
             restarts: 0,
+            relax_steps: 0,
         },
     };
     let back: BedRecord = serde_json::from_str(&serde_json::to_string(&rec).unwrap()).unwrap();
