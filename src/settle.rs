@@ -535,6 +535,12 @@ pub fn admissible(case: &Case, particles: &[ParticleSpec]) -> Result<(), String>
 /// immersed boundaries). The returned particles are at rest. Deterministic for any thread
 /// count (the contact step is).
 ///
+/// The amplified gravity can press the lower particles into each other (at full scale, where
+/// the net weight in lattice units is largest): the settled bed then relaxes at the case's
+/// own gravity, with the same drag, until the case's validation admits it as explicit
+/// particles ([`admissible`]; [`Bed::relax_steps`]). A bed admissible at once is returned as
+/// settled.
+///
 /// This replaces the paper's settling in the liquid, which would take ~10⁵ coupled steps;
 /// only the final, resting bed enters the stirred run, and the paper's statistics are
 /// taken after the impeller has re-suspended it for many revolutions.
