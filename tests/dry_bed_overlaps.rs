@@ -35,6 +35,7 @@ fn amplified_gravity_overlaps_are_relaxed_until_admissible() {
     let pressed = dry_bed(&soft, opts).unwrap();
     assert!(pressed.relax_steps > 0, "no relaxation needed: the test presses too little");
     admissible(&soft, &pressed.particles).unwrap();
+    assert!(pressed.settled, "relaxed, but not to rest");
     let c = column("");
     let plain = dry_bed(&c, opts).unwrap();
     assert_eq!(plain.relax_steps, 0);
