@@ -494,6 +494,27 @@ pub struct Bed {
     pub relax_steps: u64,
 }
 
+/// One dry-bed step: the bodies with their contacts under `loads[b] = (weight, drag, rotational
+/// drag)`, `F = W − drag v`, `T = −rot ω`, held over the contact sub-steps.
+fn dry_step(
+    ct: &mut crate::contact::Contacts,
+    bodies: &mut [crate::rigid::RigidBody],
+    markers: &[&[crate::rigid::Marker]],
+    n_sub: usize,
+    loads: &[(Vec3, f64, f64)],
+) {
+    crate::contact::step_bodies(Some(ct), bodies, markers, n_sub, |b, body| {
+        let (w, drag, rot) = loads[b];
+        (w - body.velocity * drag, -body.angular_velocity * rot)
+    });
+}
+
+/// The largest and the mean particle speed.
+fn speeds(bodies: &[crate::rigid::RigidBody]) -> (f64, f64) {
+    let v = bodies.iter().map(|b| b.velocity.norm());
+    (v.clone().fold(0.0, f64::max), v.sum::<f64>() / bodies.len() as f64)
+}
+
 /// Whether every body's position, orientation and velocities are finite.
 fn all_finite(bodies: &[crate::rigid::RigidBody]) -> bool {
     bodies.iter().all(|b| {
@@ -600,16 +621,11 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
     let stop = opts.stop_fraction * opts.terminal_speed;
     let (mut steps, mut vmax, mut vmean) = (0u64, f64::INFINITY, f64::INFINITY);
     let n_sub = contacts.substeps.max(1);
-    let n = bodies.len() as f64;
     let max_steps = opts.max_steps(&case);
     while steps < max_steps {
-        crate::contact::step_bodies(Some(&mut ct), &mut bodies, &markers, n_sub, |b, body| {
-            let (w, drag, rot) = loads[b];
-            (w - body.velocity * drag, -body.angular_velocity * rot)
-        });
+        dry_step(&mut ct, &mut bodies, &markers, n_sub, &loads);
         steps += 1;
-        vmax = bodies.iter().map(|b| b.velocity.norm()).fold(0.0, f64::max);
-        vmean = bodies.iter().map(|b| b.velocity.norm()).sum::<f64>() / n;
+        (vmax, vmean) = speeds(&bodies);
         if !all_finite(&bodies) {
             anyhow::bail!(
                 "dry bed: the particle states became non-finite at step {steps} (contact sub-steps {n_sub}: \
@@ -660,10 +676,7 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
                 }
             }
             for _ in 0..RELAX_CHECK_EVERY {
-                crate::contact::step_bodies(Some(&mut ct), &mut bodies, &markers, n_sub, |b, body| {
-                    let (w, drag, rot) = loads_1[b];
-                    (w - body.velocity * drag, -body.angular_velocity * rot)
-                });
+                dry_step(&mut ct, &mut bodies, &markers, n_sub, &loads_1);
             }
             relax_steps += RELAX_CHECK_EVERY;
             if !all_finite(&bodies) {
@@ -672,8 +685,7 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
                      case's gravity (contact sub-steps {n_sub}: more may be needed)"
                 );
             }
-            vmax = bodies.iter().map(|b| b.velocity.norm()).fold(0.0, f64::max);
-            vmean = bodies.iter().map(|b| b.velocity.norm()).sum::<f64>() / n;
+            (vmax, vmean) = speeds(&bodies);
             particles = resting_specs(&inits, &bodies);
             fit = admissible(&case, &particles);
             if opts.progress_every > 0 {
