@@ -312,7 +312,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
     let cache = PathBuf::from("target").join("reproduce").join("cache");
     let mut rows: Vec<CoupledBench> = Vec::new();
     println!(
-        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>8} {:>8} {:>9} {:>7} {:>7}",
+        "{:>8} {:>5} {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>6} {:>8} {:>8} {:>9} {:>7} {:>7}",
         "case",
         "scale",
         "parts",
@@ -328,6 +328,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
         "output",
         "ratio",
         "markers",
+        "band",
         "listed",
         "touching",
         "rebuilds",
@@ -340,7 +341,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
                 bench_case(name, s, &cache, a.warmup, a.steps, contact, a.from.as_deref(), false)
             })?;
             println!(
-                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
+                "{:>8} {:>5} {:>5} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.2} {:>8.3} {:>6.2} {:>8} {:>6} {:>8} {:>8} {:>9} {:>7.2} {:>7.2}",
                 r.case,
                 r.scale,
                 r.particles,
@@ -356,6 +357,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
                 r.output_ms,
                 r.ratio,
                 r.markers,
+                format!("{:.2}{}", r.band_fraction, if r.whole_grid { "*" } else { "" }),
                 r.listed_pairs,
                 r.interacting_pairs,
                 format!("{}/{}", r.full_rebuilds, r.list_rebuilds),
@@ -371,7 +373,7 @@ fn cmd_bench_coupled(a: BenchArgs) -> anyhow::Result<()> {
         }
     }
     println!(
-        "(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid; interp, spread: the parts of forcing; damp, spring: the \
+        "(ms per step; fluid = the fluid-only step of the same grid; ratio = step / fluid; interp, spread: the parts of forcing; band: the bands' estimated nodes / the grid's, * the whole-grid path; damp, spring: the \
          stiffest body's contact rates, per fluid step: explicit sub-steps need n_sub > damp/2 and n_sub > spring/2)"
     );
     Ok(())

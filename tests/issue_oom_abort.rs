@@ -62,14 +62,14 @@ fn estimate_follows_its_formula() {
     assert_eq!(e.total(), (19.0 * 8.0 * p + p + n + 32.0 * n) as u64);
 
     // f32 with a checkpoint and 3 spheres of d = 4 (marker spacing 0.5): force field, the
-    // coupling's velocity buffer, markers, particles, the checkpoint's copy.
+    // coupling's velocity buffer and stored momenta, markers, particles, the checkpoint's copy.
     let extra = "checkpoint_every = 10\n\n[ibm]\nmarker_spacing = 0.5\n\n[[random_particles]]\nshape = \"sphere\"\ndiameter = 4.0\ndensity = 1.5\ncount = 3\nseed = 1\n";
     let c = Case::parse_unchecked(&case(10, 20, 30, "f32", extra)).unwrap();
     let e = MemoryEstimate::of(&c);
     let markers = 3.0 * (std::f64::consts::PI * 16.0 / 0.25 + 1.0);
     assert_eq!(e.populations, (19.0 * 4.0 * p) as u64);
     assert_eq!(e.force, (3.0 * 4.0 * p) as u64);
-    assert_eq!(e.grid_other, (p + n + 24.0 * n) as u64);
+    assert_eq!(e.grid_other, (p + n + 48.0 * n) as u64);
     assert!((e.marker_count - markers).abs() < 1e-9, "{}", e.marker_count);
     assert_eq!(e.markers, (BYTES_PER_MARKER as f64 * markers) as u64);
     assert_eq!(e.particles, 3 * BYTES_PER_PARTICLE);

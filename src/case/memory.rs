@@ -12,6 +12,7 @@
 //! | force field (particles or impeller) | `3 b P` |
 //! | node masks (solid, obstacle) | `P + N` |
 //! | coupling velocity buffer (particles or impeller) | `24 N` |
+//! | coupling's stored momenta of dense steps (particles) | `24 N` |
 //! | markers and their stencils | `BYTES_PER_MARKER M` |
 //! | particles (bodies, output frame) | `BYTES_PER_PARTICLE n` |
 //! | output: the larger of the final fields (`32 N`) and a checkpoint's copy (`19 b N`, `+ 3 b N` with the force field) | |
@@ -101,7 +102,10 @@ impl MemoryEstimate {
         MemoryEstimate {
             populations: to(Q as f64 * b * padded),
             force: to(force),
-            grid_other: to(padded + nodes + if coupled { 24.0 * nodes } else { 0.0 }),
+            grid_other: to(padded
+                + nodes
+                + if coupled { 24.0 * nodes } else { 0.0 }
+                + if case.has_particles() { 24.0 * nodes } else { 0.0 }),
             markers: to(BYTES_PER_MARKER as f64 * marker_count),
             marker_count,
             particles: to(BYTES_PER_PARTICLE as f64 * particles),

@@ -156,7 +156,7 @@ pub(super) struct Band {
     /// Plane offsets (`nz + 1` entries once built; empty before).
     pub start: Vec<usize>,
     /// The runs were not built: the band stands for every node of the grid (the bands were
-    /// judged to hold more than half the grid, so the step evaluated the velocity at every
+    /// judged to hold more than a tenth of the grid (`DENSE_BAND_FRACTION`), so the step evaluated the velocity at every
     /// node; or it is unknown, after a restore). No runs then.
     pub whole_grid: bool,
 }

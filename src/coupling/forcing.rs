@@ -100,7 +100,7 @@ impl<T: Real> Coupled<T> {
 
     /// The fluid velocity at every band node into `self.velocity` (parallel over planes). When
     /// the band is the whole grid (not built: the bands together were estimated to hold more
-    /// nodes than half the grid, as small bodies in a dense bed, with bands several times
+    /// nodes than a tenth of the grid, as small bodies in a dense bed, with bands several times
     /// their volume and overlapping, do), the velocity is evaluated once at every node
     /// instead, by the same arithmetic: bitwise the same values at the band nodes.
     pub(super) fn band_velocity(&mut self) {
@@ -134,9 +134,9 @@ impl<T: Real> Coupled<T> {
 
 impl<T: Real> Coupled<T> {
     /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
-    /// over all `grid_nodes` nodes: more than half the grid (or as forced by a test). Only
+    /// over all `grid_nodes` nodes: more than a tenth of the grid (`DENSE_BAND_FRACTION`) (or as forced by a test). Only
     /// the cost depends on the answer: the band and the whole-grid paths give the same bits.
     pub(super) fn dense_band(&self, band_nodes: usize, grid_nodes: usize) -> bool {
-        self.dense_override.unwrap_or(band_nodes > grid_nodes / 2)
+        self.dense_override.unwrap_or(band_nodes as f64 > super::DENSE_BAND_FRACTION * grid_nodes as f64)
     }
 }

@@ -138,8 +138,10 @@
 //! plane's runs in body order: deterministic for any thread count.
 //!
 //! **Dense beds.** Small bodies in a dense bed have bands several times their volume, and
-//! overlapping: when the bands together hold more than half the grid, one pass over every
-//! node is cheaper than the bands' runs, and no band is built at all. Whether to build it is
+//! overlapping: when the bands together hold more than a tenth of the grid (`DENSE_BAND_FRACTION`), one pass over every
+//! node is cheaper than the bands' runs, and no band is built at all. That holds for every
+//! case of the paper at every scale (bands of 0.33–0.38 of the grid at s = 1): a band node,
+//! read from 19 populations in short runs, costs about 15 times a node of the one pass. Whether to build it is
 //! decided before building, from an estimate: per body, the number of nodes its band had
 //! when last built (first in [`Coupled::new`], at the bodies' initial poses), summed. The
 //! velocity is then evaluated at every node by the same arithmetic, so the marker
@@ -159,6 +161,18 @@ use crate::lbm::{Fluid, FluidError, FluidState, Real};
 use crate::rigid::{
     LoadScheme, Marker, Quat, RetractionError, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING,
 };
+
+/// The whole-grid path is taken when the bodies' bands are estimated to hold more than this
+/// fraction of the grid's nodes (module docs, "Dense beds"). Only the cost depends on it.
+///
+/// Measured 2026-11-27 (2 threads, f32, `benches/results/2026-11-27-dense-vs-band.json`):
+/// the whole-grid path was the faster in every case, by 1.18–1.43 times at s = 1/4 and 1/2
+/// (band fractions 0.70–2.4) and by 1.72 times at s = 1 (0.33 and 0.38, where the earlier
+/// threshold of 1/2 chose the bands): a band node costs about 15 times a node of the
+/// whole-grid pass (the 19 populations of a short run each a cache line of their own), so
+/// the two break even near a fifteenth of the grid. A single body in a large box (the
+/// verification's spheres, fractions below 0.01) keeps its band.
+pub const DENSE_BAND_FRACTION: f64 = 0.1;
 
 mod band;
 mod forcing;
@@ -610,6 +624,23 @@ impl<T: Real> Coupled<T> {
         self.offsets[b + 1] - self.offsets[b]
     }
 
+    /// The estimated size of the bodies' bands, in nodes with repetitions (module docs,
+    /// "Dense beds"): the sum of each body's band when it was last built.
+    pub fn band_estimate(&self) -> usize {
+        self.band_estimate.iter().sum()
+    }
+
+    /// Whether the last step took the whole-grid path (its band was not built).
+    pub fn whole_grid(&self) -> bool {
+        self.band.whole_grid
+    }
+
+    /// Forces the whole-grid path (`Some(true)`), the band path (`Some(false)`) or leaves
+    /// the choice to the estimate (`None`; module docs, "Dense beds"). Only the cost changes.
+    pub fn set_dense_override(&mut self, dense: Option<bool>) {
+        self.dense_override = dense;
+    }
+
     /// Forcing iterations per step.
     pub fn iterations(&self) -> usize {
         self.iterations
@@ -617,7 +648,7 @@ impl<T: Real> Coupled<T> {
 
     /// Nodes in the band of the last step (counted once per body: where two bodies' bands
     /// overlap, twice). When that band was not built (the bands were estimated to hold more
-    /// than half the grid, module docs), the estimate: the sum of the bodies' counts from
+    /// than a tenth of the grid, module docs), the estimate: the sum of the bodies' counts from
     /// their last built bands.
     pub fn band_nodes(&self) -> usize {
         if self.band_prev.whole_grid {
@@ -780,7 +811,7 @@ impl<T: Real> Coupled<T> {
     ///    bodies at `tⁿ` (global marker order: body by body, marker by marker).
     /// 2. **Stencils** ([`Stencils::build`], with the box's periodicity) and the **band** of
     ///    each body (module docs), grouped by z-plane; not built when the bands are estimated
-    ///    to hold more than half the grid (module docs, "Dense beds").
+    ///    to hold more than a tenth of the grid (`DENSE_BAND_FRACTION`) (module docs, "Dense beds").
     /// 3. **Interior sums before**: `P`, `L`, `V` of each free or fixed body from the fluid at
     ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term. Each body's
     ///    nodes and weights `α` are recorded for step 7.

@@ -1,6 +1,6 @@
 //! Dense beds: the fluid's momentum at every node, read once per fluid state.
 //!
-//! When the bands hold more than half the grid (small bodies in a dense bed: the band is the
+//! When the bands hold more than a tenth of the grid (`DENSE_BAND_FRACTION`; small bodies in a dense bed: the band is the
 //! whole grid, [`super::band::Band::whole_grid`]), phase 5 evaluates the fluid velocity at
 //! every node anyway, and the interior sums of phases 3 and 7 read the momentum of most
 //! nodes, each from 19 populations in scattered short runs. Instead, one pass over the grid

@@ -78,6 +78,12 @@ pub struct CoupledBench {
     /// Full rebuilds of the contact pair list during the timed steps (the rest of
     /// `list_rebuilds` refreshed only the bodies that had moved).
     pub full_rebuilds: u64,
+    /// The bodies' bands (nodes within reach of a stencil, with repetitions) as a fraction of
+    /// the grid, from the estimate the step chooses its path by (module `coupling`, "Dense
+    /// beds"): the whole-grid path above [`crate::coupling::DENSE_BAND_FRACTION`].
+    pub band_fraction: f64,
+    /// Whether the timed steps took the whole-grid path (no band built).
+    pub whole_grid: bool,
     /// Marker pairs in the contact pair list after the timed steps (body–body).
     pub listed_pairs: usize,
     /// Interacting marker pairs (body–body) in the last contact sub-step.
@@ -181,6 +187,9 @@ impl Setup {
         if let Some(skin) = contact.skin {
             c.set_contact_skin(skin);
         }
+        if let Ok(v) = std::env::var("SLURRY_BENCH_DENSE") {
+            c.set_dense_override(Some(v == "1"));
+        }
         Ok((c, params))
     }
 }
@@ -265,6 +274,8 @@ pub fn bench_case(
         coupled_mlups: nodes / step_ms / 1e3,
         list_rebuilds: c.contact_list_rebuilds() - rebuilds0,
         full_rebuilds: c.contacts().map_or(0, |k| k.full_rebuilds()) - full0,
+        band_fraction: c.band_estimate() as f64 / nodes,
+        whole_grid: c.whole_grid(),
         listed_pairs: c.contacts().map_or(0, |k| k.list_stats().1),
         interacting_pairs: c.contacts().map_or(0, |k| k.stats().marker_pairs),
         max_damping_rate,
