@@ -225,7 +225,9 @@ struct BenchArgs {
     #[arg(long, value_name = "FILE")]
     json: Option<PathBuf>,
     /// Measure the coupled step of the paper's cases instead (per phase, beside the fluid-only
-    /// step of the same grid; beds from the reproduction's cache, made on first use).
+    /// step of the same grid; beds from the reproduction's cache, made on first use). The
+    /// environment variable SLURRY_BENCH_DENSE=1 (or 0) forces the whole-grid (or the band) path
+    /// of the immersed boundary, which gives the same bits, to compare their costs.
     #[arg(long)]
     coupled: bool,
     /// With --coupled: the cases, comma separated (default: all six).
