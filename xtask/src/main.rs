@@ -37,7 +37,7 @@ commands:
                    fused-kernel MLUPS beside membw.sh and the lbmpy peer; ARGS go to `slurry bench`
   bench --coupled [--scales 0.25,0.5,1] [--cases pbt-ld2,...] [--steps N] [--warmup N]
                    the paper's cases' coupled step per phase beside their fluid-only step and
-                   membw.sh, into target/bench/coupled.json (full-scale beds are made once: hours);
+                   membw.sh, into target/bench/coupled.json (full-scale beds are made once: 10–16 min each);
                    --from RUN/run/checkpoint.h5 (one case, one scale) times it from a run's state
 ";
 
