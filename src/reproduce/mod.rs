@@ -560,8 +560,12 @@ pub fn bed(
     let file = dir.join("bed.json");
     if let Ok(text) = std::fs::read_to_string(&file) {
         if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
-            // A dry bed cached before `dry_bed` relaxed its overlaps may hold some: settle again.
-            if rec.inputs == inputs && crate::settle::admissible(&key_case, &rec.bed.particles).is_ok() {
+            // A dry bed cached before `dry_bed` relaxed its overlaps may hold some: settle it
+            // again (minutes). A wet bed is used as it is (hours to make; the stirred case
+            // names any overlap).
+            if rec.inputs == inputs
+                && (rec.wet || crate::settle::admissible(&key_case, &rec.bed.particles).is_ok())
+            {
                 return Ok((rec, true));
             }
         }
