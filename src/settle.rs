@@ -650,31 +650,17 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
     // overdamped) until it is admissible, checked by the case's own test every
     // `RELAX_CHECK_EVERY` steps, and at rest again (below the stopping speed). An admissible
     // bed (every bed at s ≤ 1/2 so far) is returned unchanged.
-    let loads_1: Vec<(Vec3, f64, f64)> = loads
-        .iter()
-        .zip(&bodies)
-        .map(|(&(_, drag, rot), b)| (b.net_weight(Vec3::new(g[0], g[1], g[2]), 1.0), drag, rot))
-        .collect();
     let mut relax_steps = 0u64;
     let mut particles = resting_specs(&inits, &bodies);
-    let mut fit = admissible(&case, &particles);
     let mut settled = vmean < stop;
-    if fit.is_err() {
-        // Relaxed to rest again: admissible and below the stopping speed.
+    if admissible(&case, &particles).is_err() {
+        let g1 = Vec3::new(g[0], g[1], g[2]);
+        let loads_1: Vec<(Vec3, f64, f64)> = loads
+            .iter()
+            .zip(&bodies)
+            .map(|(&(_, drag, rot), b)| (b.net_weight(g1, 1.0), drag, rot))
+            .collect();
         loop {
-            if relax_steps >= max_steps {
-                match fit {
-                    Err(overlap) => anyhow::bail!(
-                        "dry bed: after {steps} steps at {}× gravity and {relax_steps} at the case's, the bed \
-                         still overlaps: {overlap}",
-                        opts.gravity_factor
-                    ),
-                    Ok(()) => {
-                        settled = false;
-                        break;
-                    }
-                }
-            }
             for _ in 0..RELAX_CHECK_EVERY {
                 dry_step(&mut ct, &mut bodies, &markers, n_sub, &loads_1);
             }
@@ -687,7 +673,7 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
             }
             (vmax, vmean) = speeds(&bodies);
             particles = resting_specs(&inits, &bodies);
-            fit = admissible(&case, &particles);
+            let fit = admissible(&case, &particles);
             if opts.progress_every > 0 {
                 eprintln!(
                     "bed: relaxing at the case's gravity: step {relax_steps}, mean speed {vmean:.2e} (stop below \
@@ -696,9 +682,17 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
                     start.elapsed().as_secs_f64()
                 );
             }
-            if fit.is_ok() && vmean < stop {
-                settled = true;
-                break;
+            // At rest again and admissible; or, at the step limit, admissible but still moving
+            // (returned as not settled, like the settling itself), or an error.
+            settled = vmean < stop;
+            match fit {
+                Ok(()) if settled || relax_steps >= max_steps => break,
+                Err(overlap) if relax_steps >= max_steps => anyhow::bail!(
+                    "dry bed: after {steps} steps at {}× gravity and {relax_steps} at the case's, the bed still \
+                     overlaps: {overlap}",
+                    opts.gravity_factor
+                ),
+                _ => {}
             }
         }
     }

@@ -134,7 +134,7 @@ impl<T: Real> Coupled<T> {
 
 impl<T: Real> Coupled<T> {
     /// Whether bands of `band_nodes` nodes (with repetitions) are better served by one pass
-    /// over all `grid_nodes` nodes: more than a tenth of the grid (`DENSE_BAND_FRACTION`) (or as forced by a test). Only
+    /// over all `grid_nodes` nodes: more than `DENSE_BAND_FRACTION` (a tenth) of the grid, or as forced by a test. Only
     /// the cost depends on the answer: the band and the whole-grid paths give the same bits.
     pub(super) fn dense_band(&self, band_nodes: usize, grid_nodes: usize) -> bool {
         self.dense_override.unwrap_or(band_nodes as f64 > super::DENSE_BAND_FRACTION * grid_nodes as f64)

@@ -27,7 +27,7 @@ impl<T: Real> Coupled<T> {
 
     /// Phase 2: the stencils ([`crate::ibm::Stencils::build`], with the box's periodicity) and
     /// the band of each body, grouped by z-plane; or, when the bands are estimated to hold
-    /// more than a tenth of the grid (`DENSE_BAND_FRACTION`) ([`Coupled::dense_band`] on the sum of the per-body counts in
+    /// more than a tenth of the grid (`DENSE_BAND_FRACTION`; [`Coupled::dense_band`] on the sum of the per-body counts in
     /// `band_estimate`), no runs: the band is the whole grid ([`whole_grid`](super::band::Band::whole_grid)), which
     /// phases 4–5 then treat node by node. The estimate decides only the cost, never the
     /// bits: both paths give the same results (module docs). Each body's count is the number

@@ -811,7 +811,7 @@ impl<T: Real> Coupled<T> {
     ///    bodies at `tⁿ` (global marker order: body by body, marker by marker).
     /// 2. **Stencils** ([`Stencils::build`], with the box's periodicity) and the **band** of
     ///    each body (module docs), grouped by z-plane; not built when the bands are estimated
-    ///    to hold more than a tenth of the grid (`DENSE_BAND_FRACTION`) (module docs, "Dense beds").
+    ///    to hold more than a tenth of the grid (`DENSE_BAND_FRACTION`; module docs, "Dense beds").
     /// 3. **Interior sums before**: `P`, `L`, `V` of each free or fixed body from the fluid at
     ///    `tⁿ` (module docs); prescribed bodies (impellers) have no interior term. Each body's
     ///    nodes and weights `α` are recorded for step 7.

@@ -187,8 +187,15 @@ impl Setup {
         if let Some(skin) = contact.skin {
             c.set_contact_skin(skin);
         }
-        if let Ok(v) = std::env::var("SLURRY_BENCH_DENSE") {
-            c.set_dense_override(Some(v == "1"));
+        if let Some(v) = std::env::var_os("SLURRY_BENCH_DENSE") {
+            let dense = match v.to_str() {
+                Some("1") => true,
+                Some("0") => false,
+                _ => anyhow::bail!(
+                    "SLURRY_BENCH_DENSE = {v:?}: must be 1 (the whole-grid path) or 0 (the band path), or unset"
+                ),
+            };
+            c.set_dense_override(Some(dense));
         }
         Ok((c, params))
     }
