@@ -112,8 +112,10 @@ pub(crate) fn pair_force(p: &ContactParams, i: &WorldMarker, j: &WorldMarker) ->
     let d = j.x - i.x;
     // Cheap rejection (no square root) of the pairs far outside δ_λ < λ, with a relative
     // margin of 1e-6 over the rounding of `|d|² − (d·Δn)²/|Δn|²`; the exact test follows.
+    // Multiplied through by `|Δn|² > 0` (no division on this path, which most listed pairs
+    // take): `|d|²|Δn|² − (d·Δn)² ≥ (λ²(1 + 1e-6) + 1e-12)|Δn|²`.
     let s = d.dot(&dn);
-    if d.norm_squared() - s * s / len2 >= p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12 {
+    if d.norm_squared() * len2 - s * s >= (p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12) * len2 {
         return None;
     }
     let nhat = dn / len2.sqrt();
