@@ -514,23 +514,14 @@ pub fn wet_settling(c: &Case) -> SettleOptions {
     }
 }
 
-/// The bed of the scaled case `c`: from the cache when it holds one made from the same
-/// inputs, else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
-/// record and whether it came from the cache. While a wet bed settles (hours at s = 1/2,
-/// before the run has a manifest), `pointer` (if given) holds the path of the bed's cache
-/// directory, where `slurry status` finds the settling's record ([`SETTLING_POINTER`]); it is
-/// removed once the bed is stored.
+/// What a bed of the scaled case `c` depends on: the case without its impeller (which the bed
+/// is settled without) and with a one-step run section, and the settling method's options,
+/// as text (the cache key is its hash). The disk and the PBT of one ℓ/d and scale give the
+/// same text, so they share one bed.
 ///
 /// # Errors
-/// Settling failed, or the cache (or the pointer) cannot be written.
-pub fn bed(
-    name: &str,
-    c: &Case,
-    method: BedMethod,
-    cache: &Path,
-    quiet: bool,
-    pointer: Option<&Path>,
-) -> anyhow::Result<(BedRecord, bool)> {
+/// The case cannot be serialised.
+pub fn bed_inputs(c: &Case, method: &BedMethod) -> anyhow::Result<(Case, String)> {
     let mut key_case = c.clone();
     key_case.impeller = None;
     key_case.run = crate::case::RunSection {
@@ -556,19 +547,70 @@ pub fn bed(
             wet.speed, wet.check_every, wet.min_steps, wet.max_steps
         ),
     };
-    let dir = cache.join("beds").join(format!("{name}-{:016x}", fnv1a(&inputs)));
+    Ok((key_case, inputs))
+}
+
+/// A cached bed made from `inputs` (hash `hash`): the case's own entry `dir` first, then
+/// another case's entry with the same hash, by name (the disk and the PBT of one ℓ/d and scale
+/// settle the same bed, bit for bit, so it is made once). A dry bed the case would refuse as
+/// overlapping (cached before `dry_bed` relaxed its overlaps) is passed over, to be settled
+/// again (minutes); a wet bed is used as it is (hours to make; the stirred case names any
+/// overlap). Returns the record and the file it came from.
+fn cached_bed(
+    cache: &Path,
+    dir: &Path,
+    hash: &str,
+    inputs: &str,
+    key_case: &Case,
+) -> Option<(BedRecord, PathBuf)> {
+    let mut candidates = vec![dir.join("bed.json")];
+    if let Ok(entries) = std::fs::read_dir(cache.join("beds")) {
+        let suffix = format!("-{hash}");
+        let mut others: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| {
+                p != dir && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| n.ends_with(&suffix))
+            })
+            .map(|p| p.join("bed.json"))
+            .collect();
+        others.sort();
+        candidates.extend(others);
+    }
+    candidates.into_iter().find_map(|file| {
+        let rec = serde_json::from_str::<BedRecord>(&std::fs::read_to_string(&file).ok()?).ok()?;
+        (rec.inputs == inputs && (rec.wet || crate::settle::admissible(key_case, &rec.bed.particles).is_ok()))
+            .then_some((rec, file))
+    })
+}
+
+/// The bed of the scaled case `c`: from the cache when it holds one made from the same
+/// inputs ([`bed_inputs`]; its own entry, else another case's, as the disk's and the PBT's of
+/// one ℓ/d), else settled ([`dry_bed`] or [`wet_bed`]) and stored (atomically). Returns the
+/// record and whether it came from the cache. While a wet bed settles (hours at s = 1/2,
+/// before the run has a manifest), `pointer` (if given) holds the path of the bed's cache
+/// directory, where `slurry status` finds the settling's record ([`SETTLING_POINTER`]); it is
+/// removed once the bed is stored.
+///
+/// # Errors
+/// Settling failed, or the cache (or the pointer) cannot be written.
+pub fn bed(
+    name: &str,
+    c: &Case,
+    method: BedMethod,
+    cache: &Path,
+    quiet: bool,
+    pointer: Option<&Path>,
+) -> anyhow::Result<(BedRecord, bool)> {
+    let (key_case, inputs) = bed_inputs(c, &method)?;
+    let wet = wet_settling(&key_case);
+    let hash = format!("{:016x}", fnv1a(&inputs));
+    let dir = cache.join("beds").join(format!("{name}-{hash}"));
     let file = dir.join("bed.json");
-    if let Ok(text) = std::fs::read_to_string(&file) {
-        if let Ok(rec) = serde_json::from_str::<BedRecord>(&text) {
-            // A dry bed cached before `dry_bed` relaxed its overlaps may hold some: settle it
-            // again (minutes). A wet bed is used as it is (hours to make; the stirred case
-            // names any overlap).
-            if rec.inputs == inputs
-                && (rec.wet || crate::settle::admissible(&key_case, &rec.bed.particles).is_ok())
-            {
-                return Ok((rec, true));
-            }
+    if let Some((rec, from)) = cached_bed(cache, &dir, &hash, &inputs, &key_case) {
+        if !quiet && from != file {
+            eprintln!("bed: from the cache entry {} (same inputs)", from.display());
         }
+        return Ok((rec, true));
     }
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let b = match method {

@@ -276,3 +276,54 @@ fn shadow_differences_of_known_states() {
     assert!((a.rms_angular[1] - 0.2 / 2f64.sqrt()).abs() < 1e-12 && a.rms_velocity[1] == 0.0);
     assert!((a.mean_dw - 0.45).abs() < 1e-12, "{}", a.mean_dw);
 }
+
+/// The disk and the PBT of one ℓ/d and scale settle the same bed (the impeller is not among a
+/// bed's inputs), and a bed cached under one case's name serves the other: at the paper's
+/// scale a bed takes 10–16 min to settle here.
+#[test]
+fn disk_and_pbt_of_one_aspect_ratio_share_their_bed() {
+    let scaled = |name: &str| scale_case(&paper_case(name).unwrap().case().unwrap(), DEFAULT_SCALE).unwrap();
+    let dry = BedMethod::Dry(DryBedOptions::default());
+    for ld in ["ld1", "ld2", "ld4"] {
+        let (disk, pbt) = (scaled(&format!("disk-{ld}")), scaled(&format!("pbt-{ld}")));
+        assert_eq!(bed_inputs(&disk, &dry).unwrap().1, bed_inputs(&pbt, &dry).unwrap().1, "{ld}");
+    }
+    assert_ne!(
+        bed_inputs(&scaled("pbt-ld1"), &dry).unwrap().1,
+        bed_inputs(&scaled("pbt-ld2"), &dry).unwrap().1
+    );
+
+    // A record stored under pbt-ld2's name (wet: used as it is) is found for disk-ld2.
+    let cache = tempfile::tempdir().unwrap();
+    let (pbt, disk) = (scaled("pbt-ld2"), scaled("disk-ld2"));
+    let (_, inputs) = bed_inputs(&pbt, &BedMethod::Wet).unwrap();
+    let rec = BedRecord {
+        inputs: inputs.clone(),
+        wet: true,
+        bed: Bed {
+            particles: Vec::new(),
+            steps: 7,
+            mean_speed: 0.0,
+            max_speed: 0.0,
+            settled: true,
+            mean_height: 1.0,
+            seconds: 0.0,
+            restarts: 0,
+            relax_steps: 0,
+        },
+    };
+    let dir = cache.path().join("beds").join(format!("pbt-ld2-{:016x}", fnv1a(&inputs)));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("bed.json"), serde_json::to_string(&rec).unwrap()).unwrap();
+    let (key, disk_inputs) = bed_inputs(&disk, &BedMethod::Wet).unwrap();
+    let hash = format!("{:016x}", fnv1a(&disk_inputs));
+    let own = cache.path().join("beds").join(format!("disk-ld2-{hash}"));
+    let (got, from) =
+        cached_bed(cache.path(), &own, &hash, &disk_inputs, &key).expect("pbt-ld2's bed not found");
+    assert_eq!((got.bed.steps, got.inputs, from), (7, inputs, dir.join("bed.json")));
+    // Another aspect ratio's hash finds nothing.
+    let (key4, inputs4) = bed_inputs(&scaled("disk-ld4"), &BedMethod::Wet).unwrap();
+    let hash4 = format!("{:016x}", fnv1a(&inputs4));
+    let own4 = cache.path().join("beds").join(format!("disk-ld4-{hash4}"));
+    assert!(cached_bed(cache.path(), &own4, &hash4, &inputs4, &key4).is_none());
+}
