@@ -128,6 +128,271 @@ pub(crate) fn pair_force(p: &ContactParams, i: &WorldMarker, j: &WorldMarker) ->
     law(p, &nhat, delta, w, &(j.u - i.u))
 }
 
+/// Marker pairs handed to [`PairBatch::evaluate`] at a time: the listed pairs filtered by
+/// distance in one chunk of the pair list.
+pub(crate) const BATCH: usize = 64;
+
+/// Up to [`BATCH`] marker pairs `(i, j)` (each already within reach) in structure-of-arrays
+/// form, and, after [`PairBatch::evaluate`], what [`pair_force`] gives for each: whether it
+/// interacts, and its [`Hit`]. The batch is evaluated without branches, a lane per pair, so
+/// that it vectorises; every lane does [`pair_force`]'s operations in its order (no fused
+/// multiply-adds), so each hit is bitwise [`pair_force`]'s (the oracle's, tested).
+#[derive(Clone, Debug)]
+pub(crate) struct PairBatch {
+    len: usize,
+    xi: [[f64; BATCH]; 3],
+    xj: [[f64; BATCH]; 3],
+    ni: [[f64; BATCH]; 3],
+    nj: [[f64; BATCH]; 3],
+    ui: [[f64; BATCH]; 3],
+    uj: [[f64; BATCH]; 3],
+    ok: [bool; BATCH],
+    elastic: [[f64; BATCH]; 3],
+    lub: [[f64; BATCH]; 3],
+    normal: [[f64; BATCH]; 3],
+    delta: [f64; BATCH],
+    w: [f64; BATCH],
+    damping: [f64; BATCH],
+    damping_t: [f64; BATCH],
+    spring: [f64; BATCH],
+    hits: [u8; BATCH],
+    n_hits: usize,
+}
+
+impl Default for PairBatch {
+    fn default() -> Self {
+        let z = [[0.0; BATCH]; 3];
+        Self {
+            len: 0,
+            xi: z,
+            xj: z,
+            ni: z,
+            nj: z,
+            ui: z,
+            uj: z,
+            ok: [false; BATCH],
+            elastic: z,
+            lub: z,
+            normal: z,
+            delta: [0.0; BATCH],
+            w: [0.0; BATCH],
+            damping: [0.0; BATCH],
+            damping_t: [0.0; BATCH],
+            spring: [0.0; BATCH],
+            hits: [0; BATCH],
+            n_hits: 0,
+        }
+    }
+}
+
+impl PairBatch {
+    /// Empties the batch.
+    #[inline(always)]
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Appends the pair of marker `i` and its partner `j` (at most [`BATCH`] pairs).
+    #[inline(always)]
+    pub fn push(&mut self, i: &WorldMarker, j: &WorldMarker) {
+        let l = self.len;
+        for c in 0..3 {
+            self.xi[c][l] = i.x[c];
+            self.xj[c][l] = j.x[c];
+            self.ni[c][l] = i.n[c];
+            self.nj[c][l] = j.n[c];
+            self.ui[c][l] = i.u[c];
+            self.uj[c][l] = j.u[c];
+        }
+        self.len = l + 1;
+    }
+
+    /// [`pair_force`] for every pair of the batch; then [`PairBatch::hits`] lists the
+    /// interacting ones in order and [`PairBatch::hit`] gives each one's [`Hit`].
+    #[inline]
+    pub fn evaluate(&mut self, p: &ContactParams) {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the processor has AVX2 (checked just above).
+            unsafe { self.evaluate_avx2(p) };
+            return;
+        }
+        self.evaluate_lanes(p);
+    }
+
+    /// [`PairBatch::evaluate`] with AVX2, 4 lanes at a time: the operations of
+    /// [`PairBatch::evaluate_lanes`], one IEEE operation per scalar one (the compiler does not
+    /// vectorise that loop by itself), ordered comparisons (false on NaN) as there.
+    ///
+    /// # Safety
+    /// The processor must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn evaluate_avx2(&mut self, p: &ContactParams) {
+        use std::arch::x86_64::*;
+        let n = self.len.min(BATCH);
+        let set = |x: f64| _mm256_set1_pd(x);
+        let (k, d0, lam) = (set(p.k), set(p.delta0), set(p.lambda));
+        let (k_n, delta_d, delta_sat, k_t) = (set(p.k_n), set(p.delta_d), set(p.delta_sat), set(p.k_t));
+        let far2 = set(p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12);
+        let (zero, one, tiny) = (_mm256_setzero_pd(), set(1.0), set(1e-24));
+        let all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+        let on_el = if p.elastic { all } else { zero };
+        let on_lub = if p.lubrication { all } else { zero };
+        let (add, sub, mul, div) = (
+            |a, b| _mm256_add_pd(a, b),
+            |a, b| _mm256_sub_pd(a, b),
+            |a, b| _mm256_mul_pd(a, b),
+            |a, b| _mm256_div_pd(a, b),
+        );
+        let dot =
+            |a: [__m256d; 3], b: [__m256d; 3]| add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
+        for o in (0..n).step_by(4) {
+            // SAFETY: o + 4 ≤ BATCH (BATCH is a multiple of 4); lanes past `n` hold stale but
+            // harmless values and are not read back.
+            let ld = |a: &[f64; BATCH]| _mm256_loadu_pd(a.as_ptr().add(o));
+            let ld3 = |a: &[[f64; BATCH]; 3]| [ld(&a[0]), ld(&a[1]), ld(&a[2])];
+            let st = |a: &mut [f64; BATCH], v| _mm256_storeu_pd(a.as_mut_ptr().add(o), v);
+            let (ni, nj) = (ld3(&self.ni), ld3(&self.nj));
+            let (xi, xj) = (ld3(&self.xi), ld3(&self.xj));
+            let (ui, uj) = (ld3(&self.ui), ld3(&self.uj));
+            let not_facing = _mm256_cmp_pd::<_CMP_GT_OQ>(dot(ni, nj), zero);
+            let dn = [sub(ni[0], nj[0]), sub(ni[1], nj[1]), sub(ni[2], nj[2])];
+            let len2 = dot(dn, dn);
+            let d = [sub(xj[0], xi[0]), sub(xj[1], xi[1]), sub(xj[2], xi[2])];
+            let s = dot(d, dn);
+            let d2 = dot(d, d);
+            let far = _mm256_cmp_pd::<_CMP_GE_OQ>(sub(mul(d2, len2), mul(s, s)), mul(far2, len2));
+            let root = _mm256_sqrt_pd(len2);
+            let h = [div(dn[0], root), div(dn[1], root), div(dn[2], root)];
+            let delta = dot(d, h);
+            let t = [sub(d[0], mul(h[0], delta)), sub(d[1], mul(h[1], delta)), sub(d[2], mul(h[2], delta))];
+            let dl = _mm256_sqrt_pd(dot(t, t));
+            let w = div(sub(lam, dl), lam);
+            let el = _mm256_and_pd(on_el, _mm256_cmp_pd::<_CMP_LT_OQ>(delta, d0));
+            let lb = _mm256_and_pd(on_lub, _mm256_cmp_pd::<_CMP_LT_OQ>(delta, delta_d));
+            let reject = _mm256_or_pd(
+                _mm256_or_pd(not_facing, _mm256_cmp_pd::<_CMP_LT_OQ>(len2, tiny)),
+                _mm256_or_pd(far, _mm256_cmp_pd::<_CMP_GE_OQ>(dl, lam)),
+            );
+            let ok = _mm256_andnot_pd(reject, _mm256_or_pd(el, lb));
+            let bits = _mm256_movemask_pd(ok);
+            for q in 0..4 {
+                self.ok[(o + q) % BATCH] = bits & (1 << q) != 0;
+            }
+            let fe = mul(mul(k, sub(d0, delta)), w);
+            let ds = _mm256_blendv_pd(delta_sat, delta, _mm256_cmp_pd::<_CMP_GT_OQ>(delta, delta_sat));
+            let du = [sub(uj[0], ui[0]), sub(uj[1], ui[1]), sub(uj[2], ui[2])];
+            let dun = dot(du, h);
+            let g = mul(sub(div(one, ds), div(one, delta_d)), w);
+            for c in 0..3 {
+                let normal = mul(h[c], dun);
+                let tangential = sub(du[c], normal);
+                // -(h fe): the sign flipped exactly, as negation does.
+                let e = _mm256_xor_pd(mul(h[c], fe), set(-0.0));
+                st(&mut self.elastic[c], _mm256_and_pd(el, e));
+                st(&mut self.lub[c], _mm256_and_pd(lb, mul(add(mul(normal, k_n), mul(tangential, k_t)), g)));
+                st(&mut self.normal[c], h[c]);
+            }
+            st(&mut self.delta, delta);
+            st(&mut self.w, w);
+            st(&mut self.spring, _mm256_and_pd(el, mul(k, w)));
+            st(&mut self.damping, _mm256_and_pd(lb, mul(k_n, g)));
+            st(&mut self.damping_t, _mm256_and_pd(lb, mul(k_t, g)));
+        }
+        self.compact(n);
+    }
+
+    /// The lanes of [`PairBatch::evaluate`]: [`pair_force`] and [`law`] without branches (each
+    /// early return of theirs a term of `ok`, with the same comparison, so NaNs go the same
+    /// way), then the interacting lanes' indices in order.
+    #[inline(always)]
+    fn evaluate_lanes(&mut self, p: &ContactParams) {
+        // (`min`: lets the compiler drop the bounds checks, which would keep the loop scalar.)
+        let n = self.len.min(BATCH);
+        let (k, d0, lam) = (p.k, p.delta0, p.lambda);
+        let (k_n, delta_d, delta_sat, k_t) = (p.k_n, p.delta_d, p.delta_sat, p.k_t);
+        let far2 = p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12;
+        let (on_el, on_lub) = (p.elastic, p.lubrication);
+        for l in 0..n {
+            let ni = [self.ni[0][l], self.ni[1][l], self.ni[2][l]];
+            let nj = [self.nj[0][l], self.nj[1][l], self.nj[2][l]];
+            let not_facing = ni[0] * nj[0] + ni[1] * nj[1] + ni[2] * nj[2] > 0.0;
+            let dn = [ni[0] - nj[0], ni[1] - nj[1], ni[2] - nj[2]];
+            let len2 = dn[0] * dn[0] + dn[1] * dn[1] + dn[2] * dn[2];
+            let d =
+                [self.xj[0][l] - self.xi[0][l], self.xj[1][l] - self.xi[1][l], self.xj[2][l] - self.xi[2][l]];
+            let s = d[0] * dn[0] + d[1] * dn[1] + d[2] * dn[2];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let far = d2 * len2 - s * s >= far2 * len2;
+            let root = len2.sqrt();
+            let h = [dn[0] / root, dn[1] / root, dn[2] / root];
+            let delta = d[0] * h[0] + d[1] * h[1] + d[2] * h[2];
+            let t = [d[0] - h[0] * delta, d[1] - h[1] * delta, d[2] - h[2] * delta];
+            let dl = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+            let w = (lam - dl) / lam;
+            let el = on_el & (delta < d0);
+            let lb = on_lub & (delta < delta_d);
+            let reject = not_facing | (len2 < 1e-24) | far | (dl >= lam);
+            self.ok[l] = !reject & (el | lb);
+            let fe = k * (d0 - delta) * w;
+            // `delta.max(delta_sat)` (δ_sat is a number: a NaN δ gives δ_sat, as `max` does).
+            let ds = if delta > delta_sat { delta } else { delta_sat };
+            let du =
+                [self.uj[0][l] - self.ui[0][l], self.uj[1][l] - self.ui[1][l], self.uj[2][l] - self.ui[2][l]];
+            let dun = du[0] * h[0] + du[1] * h[1] + du[2] * h[2];
+            let g = (1.0 / ds - 1.0 / delta_d) * w;
+            for c in 0..3 {
+                let normal = h[c] * dun;
+                let tangential = du[c] - normal;
+                self.elastic[c][l] = if el { -(h[c] * fe) } else { 0.0 };
+                self.lub[c][l] = if lb { (normal * k_n + tangential * k_t) * g } else { 0.0 };
+                self.normal[c][l] = h[c];
+            }
+            self.delta[l] = delta;
+            self.w[l] = w;
+            self.spring[l] = if el { k * w } else { 0.0 };
+            self.damping[l] = if lb { k_n * g } else { 0.0 };
+            self.damping_t[l] = if lb { k_t * g } else { 0.0 };
+        }
+        self.compact(n);
+    }
+
+    /// The indices of the interacting lanes among the first `n`, in order, into `hits`.
+    #[inline(always)]
+    fn compact(&mut self, n: usize) {
+        let mut m = 0;
+        for l in 0..n.min(BATCH) {
+            self.hits[m] = l as u8;
+            m += usize::from(self.ok[l]);
+        }
+        self.n_hits = m;
+    }
+
+    /// The interacting pairs of the last [`PairBatch::evaluate`], as indices into the batch
+    /// (the order of [`PairBatch::push`]).
+    #[inline(always)]
+    pub fn hits(&self) -> &[u8] {
+        &self.hits[..self.n_hits]
+    }
+
+    /// The [`Hit`] of interacting pair `l`: bitwise [`pair_force`]'s.
+    #[inline(always)]
+    pub fn hit(&self, l: usize) -> Hit {
+        let v = |a: &[[f64; BATCH]; 3]| Vec3::new(a[0][l], a[1][l], a[2][l]);
+        Hit {
+            elastic: v(&self.elastic),
+            lub: v(&self.lub),
+            normal: v(&self.normal),
+            delta: self.delta[l],
+            w: self.w[l],
+            damping: self.damping[l],
+            damping_t: self.damping_t[l],
+            spring: self.spring[l],
+        }
+    }
+}
+
 /// An interacting marker pair (or marker and wall): the force on the marker in its two parts,
 /// the elastic `elastic` and the lubrication `lub` (summed apart: the lubrication limiter
 /// scales the second per body pair, module [`super`], "Lubrication limiter"), the contact
@@ -237,6 +502,74 @@ fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The batch (vectorised where the processor allows, and the plain lanes) gives
+    /// [`pair_force`]'s answer, bit for bit, for every pair: interacting or not, with either
+    /// part switched off, facing or not, coincident normals, and past both ranges.
+    #[test]
+    fn batch_is_bitwise_pair_force() {
+        let mut state = 0x2545_f491_4f6c_dd1d_u64;
+        let mut r = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut v = |s: f64| [s * r(), s * r(), s * r()];
+        let base = ContactParams::default();
+        let variants =
+            [base, ContactParams { elastic: false, ..base }, ContactParams { lubrication: false, ..base }];
+        for p in &variants {
+            let mut checked = [0usize; 2];
+            for round in 0..400 {
+                let mut batch = PairBatch::default();
+                let mut pairs = Vec::new();
+                let n = 1 + round % BATCH;
+                for k in 0..n {
+                    let ni = Vec3::from(v(1.0)).normalize();
+                    // Mostly facing normals; some equal (|Δn| = 0), some facing the same way.
+                    let nj = match k % 7 {
+                        0 => ni,
+                        1 => Vec3::from(v(1.0)).normalize(),
+                        _ => (-ni + Vec3::from(v(0.3))).normalize(),
+                    };
+                    let i = wm(v(2.0), ni.into(), v(0.1));
+                    // Near i: within both ranges about half the time.
+                    let x = i.x + Vec3::from(v(0.6));
+                    let j = WorldMarker { n: nj, ..wm(x.into(), [1.0, 0.0, 0.0], v(0.1)) };
+                    batch.push(&i, &j);
+                    pairs.push((i, j));
+                }
+                let mut lanes = batch.clone();
+                batch.evaluate(p);
+                lanes.evaluate_lanes(p);
+                let hit_bits = |h: &Hit| {
+                    [h.elastic, h.lub, h.normal]
+                        .iter()
+                        .flat_map(|v| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>())
+                        .chain([h.delta, h.w, h.damping, h.damping_t, h.spring].map(f64::to_bits))
+                        .collect::<Vec<_>>()
+                };
+                for b in [&batch, &lanes] {
+                    let expected: Vec<usize> = pairs
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, (i, j))| pair_force(p, i, j).is_some())
+                        .map(|(l, _)| l)
+                        .collect();
+                    let got: Vec<usize> = b.hits().iter().map(|&l| l as usize).collect();
+                    assert_eq!(got, expected);
+                    for &l in &got {
+                        let (i, j) = &pairs[l];
+                        assert_eq!(hit_bits(&b.hit(l)), hit_bits(&pair_force(p, i, j).unwrap()));
+                    }
+                    checked[0] += got.len();
+                    checked[1] += n - got.len();
+                }
+            }
+            assert!(checked[0] > 1000 && checked[1] > 1000, "too few hits or misses: {checked:?}");
+        }
+    }
 
     fn wm(x: [f64; 3], n: [f64; 3], u: [f64; 3]) -> WorldMarker {
         WorldMarker {

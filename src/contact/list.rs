@@ -43,7 +43,7 @@ use rayon::prelude::*;
 
 use crate::rigid::{Marker, Mat3, RigidBody, Vec3};
 
-use super::force::{pair_force, wall_distance, wall_force, Pose, WorldMarker};
+use super::force::{wall_distance, wall_force, PairBatch, Pose, WorldMarker, BATCH};
 use super::grid::{fill, for_cells, Geometry};
 use super::operator::{LubMoments, Mat6, PairOperator};
 use super::params::ContactParams;
@@ -64,7 +64,7 @@ pub const DEFAULT_SKIN: f64 = 0.15;
 const CHUNK: usize = 16;
 
 /// Marker pairs filtered by distance at a time in [`PairList::pair_slot`].
-const FILTER_CHUNK: usize = 64;
+const FILTER_CHUNK: usize = BATCH;
 
 /// Per-thread buffers of the rebuild's narrow phase.
 #[derive(Debug, Default)]
@@ -77,6 +77,7 @@ pub(crate) struct Scratch {
     start: Vec<u32>,
     items: Vec<u32>,
     found: Vec<[u32; 2]>,
+    batch: Box<PairBatch>,
 }
 
 impl Scratch {
@@ -91,6 +92,7 @@ impl Scratch {
             start: Vec::with_capacity(4 * m + 65),
             items: Vec::with_capacity(m),
             found: Vec::with_capacity(8 * m),
+            batch: Box::default(),
         }
     }
 
@@ -725,13 +727,20 @@ impl PairList {
                 within[n] = [i, j];
                 n += usize::from((mj.x - mi.x).norm_squared() < reach2);
             }
+            // The force law on the batch without branches, then the interacting pairs in order.
+            let batch = &mut s.batch;
+            batch.clear();
             for &[i, j] in &within[..n] {
-                let (mi, mj) = (&wa[i as usize], &wb[j as usize]);
-                if let Some(h) = pair_force(p, mi, mj) {
-                    slot.add_pair(&h, p, &mi.r, &mj.r, pa, pb);
-                    if let Some(lub) = lub.as_mut() {
-                        lub.add(&h, &mi.r, &mj.r);
-                    }
+                batch.push(&wa[i as usize], &wb[j as usize]);
+            }
+            batch.evaluate(p);
+            for &l in batch.hits() {
+                let [i, j] = within[l as usize];
+                let (ri, rj) = (&wa[i as usize].r, &wb[j as usize].r);
+                let h = batch.hit(l as usize);
+                slot.add_pair(&h, p, ri, rj, pa, pb);
+                if let Some(lub) = lub.as_mut() {
+                    lub.add(&h, ri, rj);
                 }
             }
         }
