@@ -134,9 +134,10 @@ pub(crate) const BATCH: usize = 64;
 
 /// Up to [`BATCH`] marker pairs `(i, j)` (each already within reach) in structure-of-arrays
 /// form, and, after [`PairBatch::evaluate`], what [`pair_force`] gives for each: whether it
-/// interacts, and its [`Hit`]. The batch is evaluated without branches, a lane per pair, so
-/// that it vectorises; every lane does [`pair_force`]'s operations in its order (no fused
-/// multiply-adds), so each hit is bitwise [`pair_force`]'s (the oracle's, tested).
+/// interacts, and its [`Hit`]. With AVX2 the batch is evaluated without branches, 4 pairs at a
+/// time, every lane doing [`pair_force`]'s operations in its order (no fused multiply-adds), so
+/// each hit is bitwise [`pair_force`]'s (the oracle's, tested); elsewhere it is
+/// [`pair_force`] itself, pair by pair.
 #[derive(Clone, Debug)]
 pub(crate) struct PairBatch {
     len: usize,
@@ -146,7 +147,6 @@ pub(crate) struct PairBatch {
     nj: [[f64; BATCH]; 3],
     ui: [[f64; BATCH]; 3],
     uj: [[f64; BATCH]; 3],
-    ok: [bool; BATCH],
     elastic: [[f64; BATCH]; 3],
     lub: [[f64; BATCH]; 3],
     normal: [[f64; BATCH]; 3],
@@ -170,7 +170,6 @@ impl Default for PairBatch {
             nj: z,
             ui: z,
             uj: z,
-            ok: [false; BATCH],
             elastic: z,
             lub: z,
             normal: z,
@@ -217,12 +216,40 @@ impl PairBatch {
             unsafe { self.evaluate_avx2(p) };
             return;
         }
-        self.evaluate_lanes(p);
+        self.evaluate_scalar(p);
     }
 
-    /// [`PairBatch::evaluate`] with AVX2, 4 lanes at a time: the operations of
-    /// [`PairBatch::evaluate_lanes`], one IEEE operation per scalar one (the compiler does not
-    /// vectorise that loop by itself), ordered comparisons (false on NaN) as there.
+    /// [`PairBatch::evaluate`] pair by pair with [`pair_force`] (the lever arms play no part).
+    fn evaluate_scalar(&mut self, p: &ContactParams) {
+        let mut m = 0;
+        for l in 0..self.len.min(BATCH) {
+            let marker = |x: &[[f64; BATCH]; 3], n: &[[f64; BATCH]; 3], u: &[[f64; BATCH]; 3]| {
+                let v = |a: &[[f64; BATCH]; 3]| Vec3::new(a[0][l], a[1][l], a[2][l]);
+                WorldMarker { index: 0, r: Vec3::zeros(), x: v(x), n: v(n), u: v(u) }
+            };
+            let (i, j) = (marker(&self.xi, &self.ni, &self.ui), marker(&self.xj, &self.nj, &self.uj));
+            if let Some(h) = pair_force(p, &i, &j) {
+                for c in 0..3 {
+                    self.elastic[c][l] = h.elastic[c];
+                    self.lub[c][l] = h.lub[c];
+                    self.normal[c][l] = h.normal[c];
+                }
+                self.delta[l] = h.delta;
+                self.w[l] = h.w;
+                self.damping[l] = h.damping;
+                self.damping_t[l] = h.damping_t;
+                self.spring[l] = h.spring;
+                self.hits[m] = l as u8;
+                m += 1;
+            }
+        }
+        self.n_hits = m;
+    }
+
+    /// [`PairBatch::evaluate`] with AVX2, 4 lanes at a time: [`pair_force`] and [`law`] without
+    /// branches, one IEEE operation per scalar one in the same order; each early return of
+    /// theirs is a term of the lane's mask, with the same ordered comparison (false on NaN), so
+    /// NaNs go the same way. The interacting lanes' indices go to `hits` in order.
     ///
     /// # Safety
     /// The processor must have AVX2.
@@ -247,6 +274,7 @@ impl PairBatch {
         );
         let dot =
             |a: [__m256d; 3], b: [__m256d; 3]| add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]));
+        let mut m = 0;
         for o in (0..n).step_by(4) {
             // SAFETY: o + 4 ≤ BATCH (BATCH is a multiple of 4); lanes past `n` hold stale but
             // harmless values and are not read back.
@@ -277,8 +305,9 @@ impl PairBatch {
             );
             let ok = _mm256_andnot_pd(reject, _mm256_or_pd(el, lb));
             let bits = _mm256_movemask_pd(ok);
-            for q in 0..4 {
-                self.ok[(o + q) % BATCH] = bits & (1 << q) != 0;
+            for q in 0..4.min(n - o) {
+                self.hits[m] = (o + q) as u8;
+                m += usize::from(bits & (1 << q) != 0);
             }
             let fe = mul(mul(k, sub(d0, delta)), w);
             let ds = _mm256_blendv_pd(delta_sat, delta, _mm256_cmp_pd::<_CMP_GT_OQ>(delta, delta_sat));
@@ -299,72 +328,6 @@ impl PairBatch {
             st(&mut self.spring, _mm256_and_pd(el, mul(k, w)));
             st(&mut self.damping, _mm256_and_pd(lb, mul(k_n, g)));
             st(&mut self.damping_t, _mm256_and_pd(lb, mul(k_t, g)));
-        }
-        self.compact(n);
-    }
-
-    /// The lanes of [`PairBatch::evaluate`]: [`pair_force`] and [`law`] without branches (each
-    /// early return of theirs a term of `ok`, with the same comparison, so NaNs go the same
-    /// way), then the interacting lanes' indices in order.
-    #[inline(always)]
-    fn evaluate_lanes(&mut self, p: &ContactParams) {
-        // (`min`: lets the compiler drop the bounds checks, which would keep the loop scalar.)
-        let n = self.len.min(BATCH);
-        let (k, d0, lam) = (p.k, p.delta0, p.lambda);
-        let (k_n, delta_d, delta_sat, k_t) = (p.k_n, p.delta_d, p.delta_sat, p.k_t);
-        let far2 = p.lambda * p.lambda * (1.0 + 1e-6) + 1e-12;
-        let (on_el, on_lub) = (p.elastic, p.lubrication);
-        for l in 0..n {
-            let ni = [self.ni[0][l], self.ni[1][l], self.ni[2][l]];
-            let nj = [self.nj[0][l], self.nj[1][l], self.nj[2][l]];
-            let not_facing = ni[0] * nj[0] + ni[1] * nj[1] + ni[2] * nj[2] > 0.0;
-            let dn = [ni[0] - nj[0], ni[1] - nj[1], ni[2] - nj[2]];
-            let len2 = dn[0] * dn[0] + dn[1] * dn[1] + dn[2] * dn[2];
-            let d =
-                [self.xj[0][l] - self.xi[0][l], self.xj[1][l] - self.xi[1][l], self.xj[2][l] - self.xi[2][l]];
-            let s = d[0] * dn[0] + d[1] * dn[1] + d[2] * dn[2];
-            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            let far = d2 * len2 - s * s >= far2 * len2;
-            let root = len2.sqrt();
-            let h = [dn[0] / root, dn[1] / root, dn[2] / root];
-            let delta = d[0] * h[0] + d[1] * h[1] + d[2] * h[2];
-            let t = [d[0] - h[0] * delta, d[1] - h[1] * delta, d[2] - h[2] * delta];
-            let dl = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
-            let w = (lam - dl) / lam;
-            let el = on_el & (delta < d0);
-            let lb = on_lub & (delta < delta_d);
-            let reject = not_facing | (len2 < 1e-24) | far | (dl >= lam);
-            self.ok[l] = !reject & (el | lb);
-            let fe = k * (d0 - delta) * w;
-            // `delta.max(delta_sat)` (δ_sat is a number: a NaN δ gives δ_sat, as `max` does).
-            let ds = if delta > delta_sat { delta } else { delta_sat };
-            let du =
-                [self.uj[0][l] - self.ui[0][l], self.uj[1][l] - self.ui[1][l], self.uj[2][l] - self.ui[2][l]];
-            let dun = du[0] * h[0] + du[1] * h[1] + du[2] * h[2];
-            let g = (1.0 / ds - 1.0 / delta_d) * w;
-            for c in 0..3 {
-                let normal = h[c] * dun;
-                let tangential = du[c] - normal;
-                self.elastic[c][l] = if el { -(h[c] * fe) } else { 0.0 };
-                self.lub[c][l] = if lb { (normal * k_n + tangential * k_t) * g } else { 0.0 };
-                self.normal[c][l] = h[c];
-            }
-            self.delta[l] = delta;
-            self.w[l] = w;
-            self.spring[l] = if el { k * w } else { 0.0 };
-            self.damping[l] = if lb { k_n * g } else { 0.0 };
-            self.damping_t[l] = if lb { k_t * g } else { 0.0 };
-        }
-        self.compact(n);
-    }
-
-    /// The indices of the interacting lanes among the first `n`, in order, into `hits`.
-    #[inline(always)]
-    fn compact(&mut self, n: usize) {
-        let mut m = 0;
-        for l in 0..n.min(BATCH) {
-            self.hits[m] = l as u8;
-            m += usize::from(self.ok[l]);
         }
         self.n_hits = m;
     }
@@ -503,7 +466,7 @@ fn law(p: &ContactParams, nhat: &Vec3, delta: f64, w: f64, du: &Vec3) -> Option<
 mod tests {
     use super::*;
 
-    /// The batch (vectorised where the processor allows, and the plain lanes) gives
+    /// The batch (vectorised where the processor allows, and pair by pair) gives
     /// [`pair_force`]'s answer, bit for bit, for every pair: interacting or not, with either
     /// part switched off, facing or not, coincident normals, and past both ranges.
     #[test]
@@ -540,9 +503,9 @@ mod tests {
                     batch.push(&i, &j);
                     pairs.push((i, j));
                 }
-                let mut lanes = batch.clone();
+                let mut scalar = batch.clone();
                 batch.evaluate(p);
-                lanes.evaluate_lanes(p);
+                scalar.evaluate_scalar(p);
                 let hit_bits = |h: &Hit| {
                     [h.elastic, h.lub, h.normal]
                         .iter()
@@ -550,7 +513,7 @@ mod tests {
                         .chain([h.delta, h.w, h.damping, h.damping_t, h.spring].map(f64::to_bits))
                         .collect::<Vec<_>>()
                 };
-                for b in [&batch, &lanes] {
+                for b in [&batch, &scalar] {
                     let expected: Vec<usize> = pairs
                         .iter()
                         .enumerate()
