@@ -4,8 +4,8 @@
 Usage: compare_branches.py NZ FIRST_REV LAST_REV LABEL=RUN_DIR [LABEL=RUN_DIR ...]
 
 For each run directory (a `slurry reproduce` output: run/timeseries.csv), over revolutions
-FIRST_REV..LAST_REV (counted as the report counts them, step / steps_per_revolution with
-1000 steps per revolution at s = 1/4): the means of <z_p>/H ((particle_mean_z + 1/2) / NZ: heights from the bottom wall, as the report's), Po_f, Po_c
+FIRST_REV..LAST_REV (counted as the report counts them, step / steps_per_revolution, with
+4000 s steps per revolution at scale s = NZ / 240: 1000 at s = 1/4, 2000 at s = 1/2): the means of <z_p>/H ((particle_mean_z + 1/2) / NZ: heights from the bottom wall, as the report's), Po_f, Po_c
 and Po; their standard errors from 5-revolution block means (the blocks' spread / sqrt(n),
 which allows for the samples' correlation within a block); the median MLUPS. Then each run's
 difference from the first, with the combined standard error, and the paired difference: the
@@ -21,10 +21,10 @@ def load(path):
     with open(path) as f:
         return list(csv.DictReader(f))
 
-def block_stats(rows, key, first, last, scale, block=5):
+def block_stats(rows, key, first, last, scale, spr, block=5):
     vals = {}
     for r in rows:
-        rev = int(r["step"]) / 1000.0
+        rev = int(r["step"]) / spr
         if first < rev <= last:
             b = int((rev - first - 1e-9) // block)
             vals.setdefault(b, []).append(scale(float(r[key])))
@@ -37,6 +37,8 @@ def block_stats(rows, key, first, last, scale, block=5):
 def main():
     nz, first, last = float(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
     runs = [a.split("=", 1) for a in sys.argv[4:]]
+    # The paper's 4000 steps per revolution on 240 nodes in z, scaled with the grid.
+    spr = 4000.0 * nz / 240.0
     # Heights from the bottom wall, half a node below the first node (the report's H = NZ).
     same = lambda x: x
     keys = [("particle_mean_z", "<z_p>/H", lambda z: (z + 0.5) / nz), ("po_fluid", "Po_f", same),
@@ -44,8 +46,8 @@ def main():
     res = {}
     for label, d in runs:
         rows = load(f"{d}/run/timeseries.csv")
-        res[label] = {name: block_stats(rows, k, first, last, s) for k, name, s in keys}
-        ml = [float(r["mlups"]) for r in rows if first < int(r["step"]) / 1000.0 <= last and float(r["mlups"]) > 0]
+        res[label] = {name: block_stats(rows, k, first, last, s, spr) for k, name, s in keys}
+        ml = [float(r["mlups"]) for r in rows if first < int(r["step"]) / spr <= last and float(r["mlups"]) > 0]
         res[label]["mlups"] = statistics.median(ml) if ml else float("nan")
     print(f"Revolutions {first:g}–{last:g}; standard errors from {int((last-first)//5)} blocks of 5 revolutions.\n")
     print("| run | " + " | ".join(n for _, n, _ in keys) + " | median MLUPS |")
