@@ -4,8 +4,9 @@
 Usage: compare_branches.py NZ FIRST_REV LAST_REV LABEL=RUN_DIR [LABEL=RUN_DIR ...]
 
 For each run directory (a `slurry reproduce` output: run/timeseries.csv), over revolutions
-FIRST_REV..LAST_REV (counted as the report counts them, step / steps_per_revolution, with
-4000 s steps per revolution at scale s = NZ / 240: 1000 at s = 1/4, 2000 at s = 1/2): the means of <z_p>/H ((particle_mean_z + 1/2) / NZ: heights from the bottom wall, as the report's), Po_f, Po_c
+FIRST_REV..LAST_REV (counted as the report counts them, step / steps_per_revolution, the
+steps per revolution 1 / |speed| of the impeller in the run's own run/case.toml, as the
+reproduction takes them: 1000 at s = 1/4, 2000 at s = 1/2): the means of <z_p>/H ((particle_mean_z + 1/2) / NZ: heights from the bottom wall, as the report's), Po_f, Po_c
 and Po; their standard errors from 5-revolution block means (the blocks' spread / sqrt(n),
 which allows for the samples' correlation within a block); the median MLUPS. Then each run's
 difference from the first, with the combined standard error, and the paired difference: the
@@ -15,11 +16,16 @@ Markdown table. Used by the archived branch comparisons
 (reproduce/pbt-ld2/runs/2026-11-26-s0.25-branch, reproduce/disk-ld1/runs/2026-11-27-s0.25-branch);
 the paired line was added on 2026-11-27, the other lines are as the first comparison printed them.
 """
-import csv, math, statistics, sys
+import csv, math, statistics, sys, tomllib
 
 def load(path):
     with open(path) as f:
         return list(csv.DictReader(f))
+
+def steps_per_revolution(run_dir):
+    """1 / |impeller speed| of the run's case (what `reproduce` schedules the run with)."""
+    with open(f"{run_dir}/run/case.toml", "rb") as f:
+        return 1.0 / abs(tomllib.load(f)["impeller"]["speed"])
 
 def block_stats(rows, key, first, last, scale, spr, block=5):
     vals = {}
@@ -37,8 +43,10 @@ def block_stats(rows, key, first, last, scale, spr, block=5):
 def main():
     nz, first, last = float(sys.argv[1]), float(sys.argv[2]), float(sys.argv[3])
     runs = [a.split("=", 1) for a in sys.argv[4:]]
-    # The paper's 4000 steps per revolution on 240 nodes in z, scaled with the grid.
-    spr = 4000.0 * nz / 240.0
+    spr = {steps_per_revolution(d) for _, d in runs}
+    if len(spr) != 1:
+        sys.exit(f"the runs have different steps per revolution: {sorted(spr)}")
+    spr = spr.pop()
     # Heights from the bottom wall, half a node below the first node (the report's H = NZ).
     same = lambda x: x
     keys = [("particle_mean_z", "<z_p>/H", lambda z: (z + 0.5) / nz), ("po_fluid", "Po_f", same),

@@ -36,17 +36,11 @@
 //! within reach (the contacts are then half of the coupled step). This is one of the reasons
 //! why `s = 1/4` results are a resolution study's coarsest point, not a reproduction.
 //!
-//! In units of the flow (one revolution is `4000 s` steps), Table 1 as printed keeps the
-//! contacts' time scales within a factor of two across the scales. The stiffest body's rates
-//! per fluid step in the settled beds (`slurry bench --coupled`, columns `damp` and `spring`;
-//! `benches/results/2026-11-27-coupled-3scales-l.json`), times the steps per revolution, at
-//! `s = 1/4, 1/2, 1`: damping 13 250, 9 340, 6 720 (pbt-ld2), 17 850, 14 940, 11 480
-//! (pbt-ld1); spring 2 130, 3 080, 3 520 and 3 390, 4 020, 5 240. At `s = 1/4` the contacts
-//! are about twice as damped and 0.6 times as stiff as at the paper's scale, per revolution
-//! (flat contacts: damping `∝ d⁰`, spring `∝ d^½`; the measured maxima of pbt-ld2 go as
-//! `d^−0.49` and `d^0.36`); scaling `k, kⁿ, kᵗ` to equal them would
-//! mean stiffnesses set per scale from one body's state, for a factor the resolution study
-//! measures anyway.
+//! In units of the flow (a revolution is `4000 s` steps), Table 1 as printed keeps the
+//! contacts' time scales within a factor of two of the paper's: per revolution the stiffest
+//! body's contacts at `s = 1/4` are about twice as damped and 0.6 times as stiff as at
+//! `s = 1` (the measured rates are tabulated in `reproduce/README.md`, "Contacts at reduced
+//! scale"), so `k, kⁿ, kᵗ` are not rescaled either.
 //!
 //! # Pipeline ([`reproduce`])
 //! 1. **Bed**: the case's seeded random placement in the whole box, settled dry
