@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
-# campaign.sh RUNS SCALE CASE... : reproduce the given cases at scale SCALE to steady state, one
-# after the other, in RUNS/CASE-sSCALE/ (a directory outside the checkout, so that a fresh clone
+# campaign.sh RUNS SCALE CASE... [-- SLURRY-OPTION...] : reproduce the given cases at scale SCALE
+# to steady state, one after the other, in RUNS/CASE-sSCALE/ (a directory outside the checkout, so that a fresh clone
 # or `cargo clean` never deletes hours of stepping).
 #
 # - Each case runs `slurry reproduce CASE --scale SCALE --revolutions 100 --until-steady 200`
 #   (pbt-ld1: 200 and 300, the paper's "more than 200 revolutions"), beds cached in RUNS/cache.
+#   REVOLUTIONS and CAP (environment) replace these numbers for every case; options after `--`
+#   are passed to each `slurry reproduce` (e.g. `-- --contact-substeps 4 --mach-limit 0.4`).
 # - Started again, it resumes a case that has a checkpoint (`--resume`) and skips one that has
 #   finished (RUNS/CASE-sSCALE/DONE); it never starts a case afresh over an earlier run (slurry
 #   refuses that itself unless --overwrite).
@@ -24,13 +26,27 @@
 #   212.8 and 213.5 ms per step for pbt-ld2 at s = 1/2 from its bed, against 121.4 ms for one
 #   2-thread run (1.14 times the steps per second in all); disk-ld1 at s = 1/4 from its steady
 #   checkpoint 57.6 and 63.7 against 35.3 ms (1.16 times). Each case takes about 1.75 times
-#   longer, so lanes pay only when there are at least as many cases as lanes.
+#   longer, so lanes pay only when there are at least as many cases as lanes. THREADS
+#   (environment) sets the threads per lane instead (e.g. THREADS=2 for one case on 2 cores).
+#
+# After a machine loss (the runs directory gone): the same command starts each case again from
+# its dry bed; the stepping is deterministic, so the runs repeat their lost predecessors bitwise.
 #
 # Example: nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 pbt-ld2 pbt-ld4 >> ~/slurry-runs/campaign.log 2>&1 &
 #          LANES=2 nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 disk-ld1 disk-ld2 disk-ld4 pbt-ld4 >> ... &
 set -u
 if [ $# -lt 3 ]; then sed -n '2,/^set -u/p' "$0" | sed '$d'; exit 2; fi
 runs=$1 scale=$2; shift 2
+# The cases, then the options for slurry after `--`.
+names=() extra=()
+while [ $# -gt 0 ]; do
+  if [ "$1" = -- ]; then shift; extra=("$@"); break; fi
+  names+=("$1"); shift
+done
+if [ ${#names[@]} -eq 0 ]; then echo "campaign.sh: no case given" >&2; exit 2; fi
+for v in REVOLUTIONS CAP THREADS; do
+  if [ -n "${!v:-}" ] && ! [[ ${!v} =~ ^[1-9][0-9]*$ ]]; then echo "campaign.sh: $v=${!v}: a positive integer" >&2; exit 2; fi
+done
 root=$(cd "$(dirname "$0")/../.." && pwd)
 BIN=${BIN:-$root/target/release/slurry}
 if [ ! -x "$BIN" ]; then (cd "$root" && cargo build --release --bin slurry) || exit 1; fi
@@ -43,13 +59,16 @@ if [ "$LANES" -gt 1 ]; then
   t=$(( cores / LANES )); [ "$t" -ge 1 ] || t=1
   threads=(--threads "$t")
 fi
+if [ -n "${THREADS:-}" ]; then threads=(--threads "$THREADS"); fi
 # One case: skipped if done, resumed if it has a checkpoint; non-zero on failure.
 run_case() {
   local c=$1 d=$runs/$1-s$scale revs=100 cap=200
   if [ -f "$d/DONE" ]; then echo "$(date -u +%FT%TZ) $c s$scale: done, skipped"; return 0; fi
   mkdir -p "$d"
   if [ "$c" = pbt-ld1 ]; then revs=200 cap=300; fi
-  local args=(reproduce "$c" --scale "$scale" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet)
+  revs=${REVOLUTIONS:-$revs} cap=${CAP:-$cap}
+  if [ "$cap" -lt "$revs" ]; then echo "$(date -u +%FT%TZ) $c s$scale: CAP=$cap is below the $revs revolutions asked for" >&2; return 1; fi
+  local args=(reproduce "$c" --scale "$scale" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet "${extra[@]}")
   if [ -f "$d/run/run/checkpoint.h5" ]; then args+=(--resume); fi
   echo "$(date -u +%FT%TZ) $c s$scale: $BIN ${args[*]}"
   if "$BIN" "${args[@]}" >> "$d/log.txt" 2>&1; then
@@ -62,7 +81,7 @@ run_case() {
 lane() { for c in "$@"; do run_case "$c" || return 1; done; }
 # Each case once, in the order given.
 cases=() pids=()
-for c in "$@"; do
+for c in "${names[@]}"; do
   dup=0; for k in "${cases[@]}"; do [ "$k" = "$c" ] && dup=1; done
   [ $dup -eq 1 ] || cases+=("$c")
 done
