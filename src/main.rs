@@ -93,7 +93,10 @@ struct ReproduceArgs {
     /// paper's particles in every case).
     #[arg(long, allow_negative_numbers = true)]
     scale: Option<f64>,
-    /// Impeller revolutions after the ramp (> 0); default 30 (about 20 min on 2 cores at the default scale; not yet steady: the paper needs 100–200), or 0.25 with --quick.
+    /// Impeller revolutions after the ramp (> 0), run as a fixed length unless --until-steady
+    /// is given too. Without either, the run goes to the paper's steady state: 100 revolutions
+    /// (200 for pbt-ld1, the paper's "more than 200"), then on as with --until-steady 200 (300
+    /// for pbt-ld1); 1–2.5 h per case on 2 cores at the default scale. 0.25 with --quick.
     #[arg(long, allow_negative_numbers = true)]
     revolutions: Option<f64>,
     /// A short smoke-test run (scale 0.25, 0.25 revolutions after the ramp): about a minute on 2 cores.
@@ -152,8 +155,8 @@ struct ReproduceArgs {
     /// Run to steady state: after --revolutions, go on in legs of 10 revolutions until the
     /// report's steady test passes (drift of ⟨z_p⟩/H over the last 20 revolutions at most
     /// 0.005 beyond twice its standard error, and at most 0.015), to at most CAP revolutions
-    /// after the ramp (CAP ≥ --revolutions). E.g.
-    /// `--revolutions 100 --until-steady 200`: the paper's "more than 100 revolutions".
+    /// after the ramp (CAP ≥ --revolutions; --revolutions defaults to 100 here, 200 for
+    /// pbt-ld1). `--revolutions 100 --until-steady 200` is the default run.
     #[arg(long, value_name = "CAP", allow_negative_numbers = true)]
     until_steady: Option<f64>,
 }
@@ -619,20 +622,32 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         vec![name]
     };
     let scale = a.scale.unwrap_or(if a.quick { reproduce::QUICK_SCALE } else { reproduce::DEFAULT_SCALE });
-    let revolutions = a.revolutions.unwrap_or(if a.quick {
-        reproduce::QUICK_REVOLUTIONS
-    } else {
-        reproduce::DEFAULT_REVOLUTIONS
-    });
-    reproduce::check_scale(scale)
-        .and_then(|()| reproduce::check_revolutions(revolutions))
+    // Each case's (revolutions, cap): given, the smoke test's, or the paper's steady state.
+    let schedules: Vec<(f64, Option<f64>)> = names
+        .iter()
+        .map(|name| match (a.revolutions, a.until_steady, a.quick) {
+            (Some(r), cap, _) => (r, cap),
+            (None, cap, true) => (reproduce::QUICK_REVOLUTIONS, cap),
+            (None, None, false) => {
+                let (r, cap) = reproduce::default_revolutions(name);
+                (r, Some(cap))
+            }
+            (None, Some(cap), false) => (reproduce::default_revolutions(name).0, Some(cap)),
+        })
+        .collect();
+    let mut checked = reproduce::check_scale(scale);
+    for &(revolutions, cap) in &schedules {
+        checked = checked
+            .and_then(|()| reproduce::check_revolutions(revolutions))
+            .and_then(|()| cap.map_or(Ok(()), |cap| reproduce::check_until_steady(cap, revolutions)));
+    }
+    checked
         .and_then(|()| a.contact_substeps.map_or(Ok(()), reproduce::check_contact_substeps))
         .and_then(|()| {
             a.lubrication_substeps
                 .map_or(Ok(()), |m| reproduce::check_lubrication_substeps(m, a.lubrication_limiter))
         })
         .and_then(|()| a.mach_limit.map_or(Ok(()), reproduce::check_mach_limit))
-        .and_then(|()| a.until_steady.map_or(Ok(()), |cap| reproduce::check_until_steady(cap, revolutions)))
         .map_err(BadInput)?;
     let contacts = reproduce::ContactOverrides {
         substeps: a.contact_substeps,
@@ -649,17 +664,9 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         return Ok(());
     }
     if !a.quiet {
-        eprintln!(
-            "{}",
-            reproduce::announce(
-                &names,
-                scale,
-                revolutions,
-                a.until_steady,
-                a.quick,
-                a.scale.is_none() && a.revolutions.is_none() && a.until_steady.is_none()
-            )
-        );
+        for (name, &(revolutions, cap)) in names.iter().zip(&schedules) {
+            eprintln!("{}", reproduce::announce(name, scale, revolutions, cap, a.quick));
+        }
     }
     let out_of = |name: &str| match (&a.out, a.all) {
         (Some(o), true) => o.join(name),
@@ -673,7 +680,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             slurry::run::check_fresh_start(&out_of(name).join("run"), "--resume", "--overwrite")?;
         }
     }
-    for name in &names {
+    for (name, &(revolutions, until_steady)) in names.iter().zip(&schedules) {
         let out = out_of(name);
         usable_out_dir(&out)?;
         let opts = ReproduceOptions {
@@ -691,7 +698,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             },
             contacts,
             mach_limit: a.mach_limit,
-            until_steady: a.until_steady,
+            until_steady,
         };
         let s = pool
             .install(|| reproduce::reproduce(name, &opts))

@@ -69,6 +69,17 @@ fn scale_range_is_checked_before_anything_starts() {
         );
         assert!(took < Duration::from_secs(5), "--until-steady {cap} took {took:?}");
     }
+    // Without --revolutions the run first does the default's (the paper's "at least 100",
+    // and "more than 200" for the PBT with ℓ/d = 1), so a cap below it is refused.
+    for (case, cap, first) in [("pbt-ld1", "150", "(200)"), ("disk-ld4", "50", "(100)")] {
+        let (code, stderr, took) = reproduce(&[case, "--until-steady", cap]);
+        assert_eq!(code, 2, "{case} --until-steady {cap}: {stderr}");
+        assert!(
+            stderr.contains(&format!("--until-steady {cap}")) && stderr.contains(first),
+            "{case} --until-steady {cap}: {stderr}"
+        );
+        assert!(took < Duration::from_secs(5), "{case} --until-steady {cap} took {took:?}");
+    }
 }
 
 #[test]

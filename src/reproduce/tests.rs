@@ -327,3 +327,25 @@ fn disk_and_pbt_of_one_aspect_ratio_share_their_bed() {
     let own4 = cache.path().join("beds").join(format!("disk-ld4-{hash4}"));
     assert!(cached_bed(cache.path(), &own4, &hash4, &inputs4, &key4).is_none());
 }
+
+/// The default run is the paper's steady state ("at least 100 impeller revolutions", "more
+/// than 200 revolutions for the combination PBT and ℓ/d = 1"), and what is printed before a
+/// run says whether it goes to steady state, and whether its scale is below the paper's
+/// resolution.
+#[test]
+fn the_default_run_goes_to_steady_state_and_says_so() {
+    for name in CASES {
+        let (r, cap) = default_revolutions(name);
+        let first = if name == "pbt-ld1" { 200.0 } else { 100.0 };
+        assert_eq!((r, cap), (first, first + 100.0), "{name}");
+        assert!(check_until_steady(cap, r).is_ok(), "{name}");
+    }
+    let steady = announce("pbt-ld2", DEFAULT_SCALE, 100.0, Some(200.0), false);
+    assert!(steady.contains("to steady state") && steady.contains("at most to 200 revolutions"), "{steady}");
+    assert!(steady.contains("d = 3.00") && steady.contains("not a reproduction"), "{steady}");
+    let fixed = announce("pbt-ld2", 0.5, 30.0, None, false);
+    assert!(
+        fixed.contains("not checked for steady state") && !fixed.contains("not a reproduction"),
+        "{fixed}"
+    );
+}

@@ -31,7 +31,7 @@ commands:
   verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
   reproduce CASE [--scale S] [--revolutions R] [--until-steady CAP] [--bed dry|wet] [--quick] [--out DIR] [--resume] [--all]
                    setup, then the paper's case CASE (pbt-ld2, ...): bed, run, statistics,
-                   figures and report.md (default size: about 20 min on 2 cores)
+                   figures and report.md (default: scale 1/4 to steady state, 1–2.5 h on 2 cores)
   setup            install libhdf5-dev and pkg-config with apt-get if missing
   bench [--quick] [--no-peer] [ARGS]
                    fused-kernel MLUPS beside membw.sh and the lbmpy peer; ARGS go to `slurry bench`
