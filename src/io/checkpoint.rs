@@ -125,6 +125,16 @@ pub fn write_checkpoint<T: Real + hdf5::H5Type>(
     })
 }
 
+/// The step a checkpoint was written at (its `time_step` attribute), without reading its
+/// state: what a resumed session will continue from, known before the run starts.
+///
+/// # Errors
+/// The file cannot be opened as HDF5 or has no `time_step`.
+pub fn checkpoint_time_step(path: &Path) -> anyhow::Result<u64> {
+    let file = hdf5::File::open(path)?;
+    Ok(file.attr("time_step")?.read_scalar::<u64>()?)
+}
+
 /// Reads a checkpoint written by [`write_checkpoint`] with the same precision `T`.
 pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Checkpoint<T>> {
     let file = hdf5::File::open(path)?;
@@ -205,5 +215,7 @@ mod tests {
         let back = read_checkpoint::<f64>(&path).unwrap();
         assert_eq!(back.bodies.as_deref(), Some(&bodies[..]));
         assert_eq!(back.state, state);
+        assert_eq!(checkpoint_time_step(&path).unwrap(), 4, "the step, without the state");
+        assert!(checkpoint_time_step(&dir.path().join("none.h5")).is_err());
     }
 }

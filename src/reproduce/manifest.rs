@@ -42,7 +42,8 @@ pub struct Session {
     pub ended: Option<String>,
     /// Wall-clock seconds of the session, when it ended.
     pub wall_time_s: Option<f64>,
-    /// The checkpoint step a resumed session continued from.
+    /// The checkpoint step a resumed session continued from, recorded when the session starts
+    /// (manifests written before 2026-11-29 have it only for sessions that finished).
     pub resumed_from_step: Option<u64>,
 }
 

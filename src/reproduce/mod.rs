@@ -703,6 +703,19 @@ fn scheduled(c: &Case, sched: &Schedule) -> Case {
     s
 }
 
+/// This process's session of the run in `run_dir`; resuming, with the step of the checkpoint
+/// it continues from, recorded before the run starts so that a session cut short (killed at
+/// a sitting's end, or stopped on an error) still says where it began. (`Manifest::finish`
+/// writes the run's own record of it, the same step.)
+fn this_session(run_dir: &Path, resume: bool) -> manifest::Session {
+    let mut session = manifest::this_session(rayon::current_num_threads());
+    if resume {
+        session.resumed_from_step =
+            crate::io::checkpoint_time_step(&run_dir.join(crate::run::files::CHECKPOINT)).ok();
+    }
+    session
+}
+
 /// The step of the last row of the time series of the run in `run_dir` (`None` when there is
 /// none to read), from its time in revolutions (`c`'s steps per revolution).
 fn last_step_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
@@ -842,7 +855,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         wall_time_s: 0.0,
         sessions: Vec::new(),
     };
-    let session = manifest::this_session(rayon::current_num_threads());
+    let session = this_session(&run_dir, opts.resume);
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     // The run to `opts.revolutions`; with --until-steady, continued in legs of
     // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's

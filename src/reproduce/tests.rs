@@ -349,3 +349,24 @@ fn the_default_run_goes_to_steady_state_and_says_so() {
         "{fixed}"
     );
 }
+
+/// A resumed session records the checkpoint step it continues from when it starts, so that a
+/// session killed at a sitting's end still says it (the manifests of 2026-11-29's s = 1/3 run
+/// had `null` for every session that did not finish); a fresh one records none.
+#[test]
+fn a_resumed_session_says_where_it_began_before_it_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let grid = crate::lattice::Grid::new(2, 2, 2);
+    let state = crate::lbm::FluidState::<f32> {
+        time: 265_320,
+        grid,
+        populations: vec![0.0; crate::lattice::Q * 8],
+        force: None,
+    };
+    crate::io::write_checkpoint(&dir.path().join(crate::run::files::CHECKPOINT), &state, None, "case")
+        .unwrap();
+    assert_eq!(this_session(dir.path(), true).resumed_from_step, Some(265_320));
+    assert_eq!(this_session(dir.path(), false).resumed_from_step, None);
+    let empty = tempfile::tempdir().unwrap();
+    assert_eq!(this_session(empty.path(), true).resumed_from_step, None, "no checkpoint: nothing to name");
+}
