@@ -141,6 +141,9 @@ fn pbt_ld2_reduced_run() {
     // the run's end, nothing (only redrawn); the bed's height above the floor with its z/H.
     let report = std::fs::read_to_string(opts.out.join("report.md")).unwrap();
     let k = again.record.run.resumed_from.unwrap();
+    // The manifest named that step when the session started (read from the checkpoint).
+    let m = slurry::reproduce::manifest::Manifest::read(&opts.out).unwrap();
+    assert_eq!(m.sessions[1].resumed_from_step, Some(k));
     if k == s.record.run.steps {
         assert!(
             report.contains(&format!("resumed the run at its last step, {k}: it stepped nothing")),

@@ -117,11 +117,7 @@ impl Manifest {
         wall_time_s: f64,
         steps_done: u64,
         revolutions_done: f64,
-        resumed_from_step: Option<u64>,
     ) -> anyhow::Result<()> {
-        if let Some(s) = self.sessions.last_mut() {
-            s.resumed_from_step = resumed_from_step;
-        }
         self.steps_done = Some(steps_done);
         self.revolutions_done = Some(revolutions_done);
         self.end_session(dir, wall_time_s, "finished".into())
@@ -255,11 +251,14 @@ mod tests {
         let m = Manifest::start(dir.path(), first.clone(), false, this_session(2)).unwrap();
         assert_eq!((m.status.as_str(), m.restarts), ("running", 0));
         assert_eq!(Manifest::read(dir.path()).unwrap(), m);
-        // Interrupted: no finish. The resume appends a session.
-        let mut m = Manifest::start(dir.path(), first.clone(), true, this_session(2)).unwrap();
+        // Interrupted: no finish. The resume appends a session, with the step it continues
+        // from on disk before it runs.
+        let resumed = Session { resumed_from_step: Some(5000), ..this_session(2) };
+        let mut m = Manifest::start(dir.path(), first.clone(), true, resumed).unwrap();
         assert_eq!((m.restarts, m.sessions.len()), (1, 2));
         assert!(m.sessions[0].ended.is_none());
-        m.finish(dir.path(), 12.5, 101_000, 100.0, Some(5000)).unwrap();
+        assert_eq!(Manifest::read(dir.path()).unwrap().sessions[1].resumed_from_step, Some(5000));
+        m.finish(dir.path(), 12.5, 101_000, 100.0).unwrap();
         let read = Manifest::read(dir.path()).unwrap();
         assert_eq!(
             (read.status.as_str(), read.wall_time_s, read.steps_done),

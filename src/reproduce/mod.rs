@@ -705,8 +705,7 @@ fn scheduled(c: &Case, sched: &Schedule) -> Case {
 
 /// This process's session of the run in `run_dir`; resuming, with the step of the checkpoint
 /// it continues from, recorded before the run starts so that a session cut short (killed at
-/// a sitting's end, or stopped on an error) still says where it began. (`Manifest::finish`
-/// writes the run's own record of it, the same step.)
+/// a sitting's end, or stopped on an error) still says where it began.
 fn this_session(run_dir: &Path, resume: bool) -> manifest::Session {
     let mut session = manifest::this_session(rayon::current_num_threads());
     if resume {
@@ -928,13 +927,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     let results = report::write_all(name, &case, &paper, &record, &bed, &opts.out)?;
     let revolutions_done =
         (record.run.steps.saturating_sub(sched.ramp_steps)) as f64 / sched.steps_per_revolution;
-    record_file.finish(
-        &opts.out,
-        t0.elapsed().as_secs_f64(),
-        record.run.steps,
-        revolutions_done,
-        record.run.resumed_from,
-    )?;
+    record_file.finish(&opts.out, t0.elapsed().as_secs_f64(), record.run.steps, revolutions_done)?;
     let summary = ReproduceSummary {
         record,
         wall_time_s: t0.elapsed().as_secs_f64(),

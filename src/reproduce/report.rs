@@ -856,11 +856,7 @@ fn report_md(
          twice its standard error, and at most {}): **{}**: {}.\n",
         stats::STEADY_DRIFT_CAP * STEADY_DRIFT,
         if r.steady { "steady" } else { "NOT steady" },
-        // The reason repeats the verdict ("steady: drift …"); the bold word above says it.
         r.steady_reason
-            .strip_prefix("steady: ")
-            .or_else(|| r.steady_reason.strip_prefix("not steady: "))
-            .unwrap_or(&r.steady_reason)
     );
     if !r.steady {
         let _ = writeln!(

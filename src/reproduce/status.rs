@@ -310,7 +310,12 @@ fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
     }
     let series: Vec<(f64, f64)> = ts.time.iter().copied().zip(ts.mean_height.iter().copied()).collect();
     let st = stats::steady_state(&series, report::STEADY_REVOLUTIONS, report::STEADY_DRIFT);
-    let _ = writeln!(s, "steady test on the time series now: {}", st.reason);
+    let _ = writeln!(
+        s,
+        "steady test on the time series now: {}: {}",
+        if st.steady { "steady" } else { "not steady" },
+        st.reason
+    );
     // The power numbers after the ramp, averaged as the report does.
     let po: Vec<(f64, f64, f64)> = ts
         .time

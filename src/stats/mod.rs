@@ -361,7 +361,8 @@ pub struct SteadyTest {
     /// Steady: the window is fully covered, `|drift| − 2 drift_se ≤ tolerance` and
     /// `|drift| ≤ STEADY_DRIFT_CAP × tolerance`.
     pub steady: bool,
-    /// Why (not) steady, with the numbers.
+    /// Why (not) steady, with the numbers: the evidence, without the verdict (which is
+    /// [`SteadyTest::steady`]; each display states it once).
     pub reason: String,
 }
 
@@ -457,12 +458,12 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
         // The slope too: a run can pass while still creeping (within the tolerance, or on its
         // noise allowance), and the reader should see by how much.
         format!(
-            "steady: drift {:.3e} ± {:.1e} over the last {window_revs} revolutions (slope {:.3e} per revolution, \
+            "drift {:.3e} ± {:.1e} over the last {window_revs} revolutions (slope {:.3e} per revolution, \
              {} samples) within the tolerance {tolerance:.3e} and twice its standard error",
             t.drift, t.drift_se, t.slope_per_rev, t.samples
         )
     } else {
-        format!("not steady: {}", failed.join("; "))
+        failed.join("; ")
     };
     t
 }
