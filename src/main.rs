@@ -159,6 +159,14 @@ struct ReproduceArgs {
     /// pbt-ld1). `--revolutions 100 --until-steady 200` is the default run.
     #[arg(long, value_name = "CAP", allow_negative_numbers = true)]
     until_steady: Option<f64>,
+    /// Start from the particles of another reproduction of the same case (its output
+    /// directory, at any scale) instead of the settled bed: a frame of its last 20 revolutions
+    /// with the impeller where this run's starts, positions scaled to this grid, at rest; the
+    /// choice is written to `start.json`. For a half-scale case, started from the steady state
+    /// of a coarser run: the suspension then approaches its level from above. A resumed run
+    /// needs the same directory.
+    #[arg(long, value_name = "RUN", conflicts_with_all = ["all", "bed"])]
+    start_from: Option<PathBuf>,
 }
 
 /// `slurry reproduce --bed`.
@@ -699,6 +707,7 @@ fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             contacts,
             mach_limit: a.mach_limit,
             until_steady,
+            start_from: a.start_from.clone(),
         };
         let s = pool
             .install(|| reproduce::reproduce(name, &opts))

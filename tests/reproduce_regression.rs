@@ -51,6 +51,7 @@ fn pbt_ld2_reduced_run() {
         contacts: Default::default(),
         mach_limit: None,
         until_steady: None,
+        start_from: None,
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;
@@ -201,6 +202,41 @@ fn pbt_ld2_reduced_run() {
     assert!(at > 0, "the checkpoint is a stirred state, not the bed: step {at}");
     assert_eq!(b.start_step, at + 2, "timed from the checkpoint's step {at} after 2 warm-up steps");
     assert!(b.step_ms > 0.0 && b.fluid_ms > 0.0 && b.from.is_some());
+
+    // `--start-from`: this run's particles as the start of a run at scale 1/3 (84 × 84 × 80):
+    // a frame with the impeller at a blade position, positions mapped per axis about the
+    // walls, at rest, a valid stirred case; recorded in start.json and read back on a resume.
+    use slurry::reproduce::start::{start_bed, MAX_TIP_SHIFT, START_FILE};
+    let pc = slurry::reproduce::paper_case("pbt-ld2").unwrap();
+    let third = slurry::reproduce::scale_case(&pc.case().unwrap(), 1.0 / 3.0).unwrap();
+    let out3 = dir.path().join("from-run");
+    std::fs::create_dir_all(&out3).unwrap();
+    let rec = start_bed("pbt-ld2", &third, &opts.out, &out3, false).unwrap();
+    let from = rec.start_from.clone().expect("a start record");
+    assert_eq!(from.factor, [84.0 / 63.0, 84.0 / 63.0, 80.0 / 60.0]);
+    assert!(from.tip_shift <= MAX_TIP_SHIFT, "{from:?}");
+    let hist = slurry::io::read_particle_history(&opts.out.join("run/particles.h5")).unwrap();
+    let frame = hist.frames.iter().find(|f| f.step == from.step).expect("the chosen frame");
+    assert_eq!(rec.bed.particles.len(), 822);
+    for (p, x) in rec.bed.particles.iter().zip(&frame.position) {
+        for i in 0..3 {
+            assert!((p.position[i] - ((x[i] + 0.5) * from.factor[i] - 0.5)).abs() < 1e-9, "{p:?} from {x:?}");
+        }
+        assert!(p.velocity.is_none() && p.angular_velocity.is_none() && (p.diameter - 4.0).abs() < 1e-9);
+    }
+    let sched = slurry::reproduce::schedule(&third, 0.1).unwrap();
+    slurry::reproduce::stirred_case(&third, &rec, &sched).validate().expect("a valid stirred case");
+    assert!(out3.join(START_FILE).is_file());
+    let back = start_bed("pbt-ld2", &third, &opts.out, &out3, true).unwrap();
+    assert_eq!(
+        serde_json::to_string(&back).unwrap(),
+        serde_json::to_string(&rec).unwrap(),
+        "read back on --resume"
+    );
+    let other = start_bed("pbt-ld2", &third, dir.path(), &out3, true).unwrap_err();
+    assert!(format!("{other:#}").contains("this run started from"), "{other:#}");
+    let wrong = start_bed("pbt-ld4", &third, &opts.out, &dir.path().join("x"), false).unwrap_err();
+    assert!(format!("{wrong:#}").contains("a reproduction of pbt-ld2, not of pbt-ld4"), "{wrong:#}");
 }
 
 /// Writes `target/ci/pbt-ld2-against-the-paper.md`, which `cargo xtask ci` prints after the

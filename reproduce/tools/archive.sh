@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # archive.sh RUN_OUT DEST : copy a finished reproduction (the --out directory of `slurry
 # reproduce`) into the checkout's archive, e.g. reproduce/CASE/runs/DATE-sSCALE/: manifest,
-# report, statistics, reproduce.json, the run's summary.json and timeseries.csv, and the PNG
+# report, statistics, reproduce.json, the run's summary.json and timeseries.csv, start.json
+# (a run started with --start-from), and the PNG
 # figures (each checked under 300 KB). Fields, particle histories and checkpoints stay out of
 # git. Write the archive's MANIFEST.md by hand: what the run shows, its sessions, its host.
 set -eu
@@ -17,5 +18,7 @@ done
 mkdir -p "$dest"
 for f in manifest.json report.md reproduce.json statistics.json statistics.h5; do cp "$src/$f" "$dest/"; done
 cp "$src/run/summary.json" "$src/run/timeseries.csv" "$dest/"
+# A run started from another run's particles (--start-from) records that start.
+[ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
 cp "$src"/*.png "$dest/"
 ls -la "$dest"

@@ -69,6 +69,7 @@ pub mod bench;
 pub mod manifest;
 pub mod report;
 pub mod resolution;
+pub mod start;
 pub mod status;
 pub mod summary;
 
@@ -391,6 +392,9 @@ pub struct ReproduceOptions {
     /// [`STEADY_CHECK_REVOLUTIONS`] until the report's steady test passes
     /// ([`report::steady_test`]), to at most `CAP` revolutions after the ramp.
     pub until_steady: Option<f64>,
+    /// `--start-from RUN`: start from the particles of the reproduction of the same case in
+    /// this output directory (any scale; [`start`]) instead of the settled bed.
+    pub start_from: Option<PathBuf>,
 }
 
 /// Revolutions between two steady tests of `--until-steady`.
@@ -481,6 +485,10 @@ pub struct BedRecord {
     /// The bed.
     #[serde(flatten)]
     pub bed: Bed,
+    /// Not a settled bed but another run's particles (`--start-from`, [`start`]); absent for a
+    /// settled bed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_from: Option<start::StartFrom>,
 }
 
 /// How the bed is settled (`slurry reproduce --bed dry|wet`).
@@ -673,7 +681,7 @@ pub fn bed(
             b.max_speed
         );
     }
-    let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b };
+    let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b, start_from: None };
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
     remove_settling_checkpoint(&dir.join(SETTLING_CHECKPOINT))?;
@@ -826,7 +834,36 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
     let pointer = opts.out.join(SETTLING_POINTER);
-    let (bed, cached) = bed(name, &scaled, opts.bed, &opts.cache, opts.quiet, Some(&pointer))?;
+    let start_file = opts.out.join(start::START_FILE);
+    let (bed, cached) = match &opts.start_from {
+        Some(src) => (start::start_bed(name, &scaled, src, &opts.out, opts.resume)?, false),
+        None => {
+            anyhow::ensure!(
+                !(opts.resume && start_file.exists()),
+                "{} records that this run started from another run's particles: resume it with the same --start-from",
+                start_file.display()
+            );
+            if start_file.exists() {
+                // --overwrite: the earlier run's start goes with it.
+                std::fs::remove_file(&start_file)
+                    .with_context(|| format!("--overwrite: cannot remove {}", start_file.display()))?;
+            }
+            bed(name, &scaled, opts.bed, &opts.cache, opts.quiet, Some(&pointer))?
+        }
+    };
+    if let (Some(from), false) = (&bed.start_from, opts.quiet) {
+        eprintln!(
+            "start: the particles of {} (scale {}) at step {} ({:.1} revolutions, <z_p>/H {:.3}), scaled by {:.4}, at \
+             rest; impeller phase error {:.3} deg",
+            from.dir.display(),
+            from.scale,
+            from.step,
+            from.revolution,
+            from.mean_height_over_h,
+            from.factor[2],
+            from.phase_error_deg
+        );
+    }
     if cached && !opts.quiet {
         eprintln!(
             "bed: from the cache ({} particles, settled in {} steps)",

@@ -90,7 +90,7 @@ pub const ORIENTATION_BINS: usize = 18;
 pub const MOBILE_HEIGHT: f64 = 0.2;
 
 /// The tank of a stirred case, and its impeller.
-fn tank_of(case: &Case) -> anyhow::Result<(Tank, crate::case::ImpellerSetup)> {
+pub(crate) fn tank_of(case: &Case) -> anyhow::Result<(Tank, crate::case::ImpellerSetup)> {
     let setup = case
         .impeller_setup()
         .map_err(|k| anyhow::anyhow!("{k}"))?
@@ -790,7 +790,27 @@ fn report_md(
         1.0 / s.schedule.steps_per_revolution,
         PI * 132.0 * s.scale / s.schedule.steps_per_revolution
     );
-    let _ = writeln!(
+    if let Some(from) = &bed.start_from {
+        let _ = writeln!(
+            m,
+            "- Start: **not a settled bed** (the paper's start) but the particles of the reproduction in `{}` (scale \
+             {:.3}) at its step {} ({:.1} revolutions, ⟨z_p⟩/H {:.3}), positions scaled by {:.4} to this grid, at rest \
+             (`--start-from`; the impeller {:.3}° from its start angle in that frame, tips {:.3} lattice units); mean \
+             centre height {:.2} above the floor ({:.3} H). The suspension relaxes from that state; the statistics are \
+             those of the run's own last revolutions.",
+            from.dir.display(),
+            from.scale,
+            from.step,
+            from.revolution,
+            from.mean_height_over_h,
+            from.factor[2],
+            from.phase_error_deg,
+            from.tip_shift,
+            bed.bed.mean_height + 0.5,
+            (bed.bed.mean_height + 0.5) / g.nz as f64,
+        );
+    } else {
+        let _ = writeln!(
         m,
         "- Bed: placed at random and settled {} in {} steps ({}{}), mean centre height {:.2} above the floor ({:.3} H); {}.",
         if bed.wet {
@@ -816,6 +836,7 @@ fn report_md(
         (bed.bed.mean_height + 0.5) / g.nz as f64,
         if s.bed_cached { "from the cache" } else { "made for this run" }
     );
+    }
     let _ = writeln!(
         m,
         "- Run: {} steps = ramp of {} steps + {} revolutions; {:.0} s of stepping at {:.1} MLUPS on {} threads; \

@@ -199,6 +199,7 @@ fn cached_bed_reads_back_bitwise() {
             restarts: 0,
             relax_steps: 0,
         },
+        start_from: None,
     };
     let back: BedRecord = serde_json::from_str(&serde_json::to_string(&rec).unwrap()).unwrap();
     let bits = |r: &BedRecord| -> Vec<u64> {
@@ -311,6 +312,7 @@ fn disk_and_pbt_of_one_aspect_ratio_share_their_bed() {
             restarts: 0,
             relax_steps: 0,
         },
+        start_from: None,
     };
     let dir = cache.path().join("beds").join(format!("pbt-ld2-{:016x}", fnv1a(&inputs)));
     std::fs::create_dir_all(&dir).unwrap();

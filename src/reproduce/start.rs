@@ -1,0 +1,315 @@
+//! `slurry reproduce --start-from RUN`: a stirred run that starts from the particles of another
+//! reproduction of the same case, at any scale, instead of from a settled bed.
+//!
+//! The paper starts each case from a loosely packed bed and reports the dynamic steady state
+//! after 100–200 revolutions. How fast a bed rises falls with the resolution (at s = 1/2 the
+//! suspension rises about half as fast as at s = 1/4, `reproduce/README.md`), so from the bed a
+//! half-scale case may need more than 200 revolutions. Started from the steady state of a
+//! coarser run, the suspension approaches its level from above instead of from below; where
+//! both are run, the two bracket the steady level.
+//!
+//! The start is one frame of the source's `run/particles.h5`:
+//!
+//! - **positions** mapped as the scaling maps every length ([`super::scale_case`]), per axis by
+//!   the ratio of the grids, `x' = (x + ½) n'/n − ½`, so that the walls (at `−½` and `n − ½`)
+//!   map onto the walls: the configuration is geometrically similar, gaps included;
+//! - **orientations** kept; **velocities** zero: the run starts with the fluid at rest and the
+//!   impeller's ramp, as from a bed;
+//! - **the frame** is one of the source's last [`WINDOW_REVOLUTIONS`] revolutions in which the
+//!   impeller stands where the new run's starts (angle 0), up to its symmetry (a PBT's blade
+//!   spacing; any angle for the disk), so that no particle finds a blade inside it: the frame
+//!   with the smallest phase error whose particles pass the case's validation (walls' margins,
+//!   no overlaps), refused if the blade tips are more than [`MAX_TIP_SHIFT`] from where they stood.
+//!
+//! What was chosen is written to `start.json` in the output directory; a resumed run reads it
+//! back (the source may have moved on or gone), so that its case is the one its checkpoint was
+//! written for.
+
+use std::f64::consts::TAU;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+use serde::{Deserialize, Serialize};
+
+use super::{manifest, BedRecord};
+use crate::case::{Case, MotionKind, ParticleSpec};
+use crate::io::{atomic_write_bytes, read_particle_history_from};
+use crate::rigid::impeller::ImpellerKind;
+use crate::settle::{admissible, Bed};
+
+/// The file in the output directory that records the start ([`StartFrom`]).
+pub const START_FILE: &str = "start.json";
+
+/// The source's last revolutions searched for the start frame.
+pub const WINDOW_REVOLUTIONS: f64 = 20.0;
+
+/// Largest distance, lattice units of the new scale, between where the blade tips stand in the
+/// chosen frame and where they stand at the new run's start (a quarter of Table 1's elastic
+/// range `δ0 = 0.5`).
+pub const MAX_TIP_SHIFT: f64 = 0.125;
+
+/// Frames tried for the validation, in order of phase error, before giving up.
+const MAX_TRIED: usize = 64;
+
+/// Where a run started from another run's particles: `start.json`, and the report's line.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StartFrom {
+    /// The source: a reproduction's output directory, as given.
+    pub dir: PathBuf,
+    /// The source's scale.
+    pub scale: f64,
+    /// Step of the source frame.
+    pub step: u64,
+    /// The source frame's time in revolutions (`step · N`, ramp included).
+    pub revolution: f64,
+    /// The source frame's `⟨z_p⟩/H`.
+    pub mean_height_over_h: f64,
+    /// Per-axis ratio of the grids, new over source.
+    pub factor: [f64; 3],
+    /// The impeller's angle in the source frame less the nearest angle equivalent to the new
+    /// run's start (0 up to its symmetry), degrees.
+    pub phase_error_deg: f64,
+    /// The blade tips' displacement that phase error makes at the new scale, lattice units.
+    pub tip_shift: f64,
+}
+
+/// The bed record of a run of the scaled case `scaled` (case `name`, output directory `out`)
+/// that starts from the reproduction in `src`: chosen afresh and written to `out/start.json`
+/// (which a fresh start replaces), or, with `resume`, read back from it.
+///
+/// # Errors
+/// `src` is not a reproduction of `name` with a particle history, has no usable frame (module
+/// docs), or `start.json` cannot be written or read; each message names `--start-from` and the
+/// path.
+pub fn start_bed(
+    name: &str,
+    scaled: &Case,
+    src: &Path,
+    out: &Path,
+    resume: bool,
+) -> anyhow::Result<BedRecord> {
+    let file = out.join(START_FILE);
+    if resume {
+        let text = std::fs::read_to_string(&file).with_context(|| {
+            format!(
+                "--start-from {} with --resume: {} cannot be read (this run was not started with --start-from)",
+                src.display(),
+                file.display()
+            )
+        })?;
+        let rec: BedRecord = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a start record", file.display()))?;
+        let Some(from) = &rec.start_from else {
+            anyhow::bail!("{} records no --start-from source", file.display());
+        };
+        anyhow::ensure!(
+            from.dir == src,
+            "--start-from {}: this run started from {} ({}); give that directory",
+            src.display(),
+            from.dir.display(),
+            file.display()
+        );
+        return Ok(rec);
+    }
+    let rec = choose_start(name, scaled, src)?;
+    let json = serde_json::to_string(&rec).context("cannot serialise the start record")?;
+    atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
+    Ok(rec)
+}
+
+/// The impeller's symmetry angle (radians): its blade spacing, `None` for the disk (any angle).
+fn symmetry(case: &Case) -> anyhow::Result<(crate::case::ImpellerSetup, Option<f64>)> {
+    let setup = case
+        .impeller_setup()
+        .map_err(|k| anyhow::anyhow!("{k}"))?
+        .ok_or_else(|| anyhow::anyhow!("the case has no impeller"))?;
+    let period = match setup.shape.geometry().kind {
+        ImpellerKind::Disk { .. } => None,
+        ImpellerKind::PitchedBlade { blades, .. } => Some(TAU / blades.max(1) as f64),
+    };
+    Ok((setup, period))
+}
+
+/// `angle` less the nearest multiple of `period`, in `(−period/2, period/2]`; 0 without one.
+pub fn phase_error(angle: f64, period: Option<f64>) -> f64 {
+    match period {
+        None => 0.0,
+        Some(p) => angle - p * (angle / p).round(),
+    }
+}
+
+/// Maps a position of a grid `n` onto the grid `n_new` (module docs).
+pub fn map_position(x: [f64; 3], factor: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|i| (x[i] + 0.5) * factor[i] - 0.5)
+}
+
+/// Chooses the start frame of `src` for the scaled case `scaled` (module docs).
+fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedRecord> {
+    let what = || format!("--start-from {}", src.display());
+    let m = manifest::Manifest::read(src).ok_or_else(|| {
+        anyhow::anyhow!("{}: no readable {} (not a reproduction's output directory)", what(), manifest::FILE)
+    })?;
+    anyhow::ensure!(m.case == name, "{}: a reproduction of {}, not of {name}", what(), m.case);
+    let run = src.join("run");
+    let case_path = run.join(crate::run::files::CASE);
+    let src_case =
+        Case::from_file(&case_path).with_context(|| format!("{}: cannot read its case", what()))?;
+    let (src_setup, period) = symmetry(&src_case).with_context(what)?;
+    let (new_setup, _) = symmetry(scaled)?;
+    let path = run.join(crate::run::files::PARTICLES_H5);
+    let total = read_particle_history_from(&path, usize::MAX)
+        .with_context(|| format!("{}: cannot read {}", what(), path.display()))?
+        .frames_in_file;
+    anyhow::ensure!(total > 0, "{}: {} has no frames", what(), path.display());
+    // Frames per revolution from the spacing of the last two frames.
+    let tail = read_particle_history_from(&path, total.saturating_sub(2))?;
+    let spacing = match tail.frames.as_slice() {
+        [a, b] => (b.step - a.step).max(1) as f64,
+        _ => 1.0,
+    };
+    let steps_per_rev = 1.0 / src_setup.speed().abs();
+    let window = ((WINDOW_REVOLUTIONS * steps_per_rev / spacing).ceil() as usize).max(1);
+    let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
+    let grid = scaled.grid();
+    let factor =
+        [grid.nx as f64 / hist.nx as f64, grid.ny as f64 / hist.ny as f64, grid.nz as f64 / hist.nz as f64];
+    let spread = factor.iter().fold(0.0_f64, |a, &f| a.max((f / factor[2] - 1.0).abs()));
+    anyhow::ensure!(
+        spread <= 0.01,
+        "{}: its grid {} x {} x {} is not similar to this one's {} x {} x {} (ratios {:?} differ by {:.1} %, at most 1 %)",
+        what(),
+        hist.nx,
+        hist.ny,
+        hist.nz,
+        grid.nx,
+        grid.ny,
+        grid.nz,
+        factor,
+        100.0 * spread
+    );
+    let template = scaled.random_particles.first().ok_or_else(|| {
+        anyhow::anyhow!("the scaled case {name} has no random particle population to replace")
+    })?;
+    let count = scaled.particle_count();
+    anyhow::ensure!(
+        hist.statics.len() == count,
+        "{}: {} particles, this case has {count}",
+        what(),
+        hist.statics.len()
+    );
+    let tip_radius = 0.5 * new_setup.diameter();
+    let mut order: Vec<(f64, usize)> = hist
+        .frames
+        .iter()
+        .enumerate()
+        .map(|(k, f)| (phase_error(src_setup.motion.angle(f.step as f64), period), k))
+        .collect();
+    // Smallest phase error first; among equals, the latest frame.
+    order.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()).then(b.1.cmp(&a.1)));
+    let mut refused = Vec::new();
+    for &(eps, k) in order.iter().take(MAX_TRIED) {
+        let tip_shift = tip_radius * eps.abs();
+        if tip_shift > MAX_TIP_SHIFT {
+            break;
+        }
+        let frame = &hist.frames[k];
+        let particles: Vec<ParticleSpec> = frame
+            .position
+            .iter()
+            .zip(&frame.quaternion)
+            .map(|(x, q)| {
+                let n = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+                ParticleSpec {
+                    shape: template.shape,
+                    diameter: template.diameter,
+                    length: template.length,
+                    density: template.density,
+                    position: map_position(*x, factor),
+                    orientation: Some(q.map(|c| c / n)),
+                    axis: None,
+                    velocity: None,
+                    angular_velocity: None,
+                    motion: MotionKind::Free,
+                }
+            })
+            .collect();
+        if let Err(e) = admissible(scaled, &particles) {
+            refused.push(format!("step {}: {e}", frame.step));
+            continue;
+        }
+        let mean_z = particles.iter().map(|p| p.position[2]).sum::<f64>() / particles.len() as f64;
+        let src_h = hist.nz as f64;
+        let src_mean = frame.position.iter().map(|x| x[2]).sum::<f64>() / frame.position.len() as f64;
+        let from = StartFrom {
+            dir: src.to_path_buf(),
+            scale: m.scale,
+            step: frame.step,
+            revolution: frame.step as f64 / steps_per_rev,
+            mean_height_over_h: (src_mean + 0.5) / src_h,
+            factor,
+            phase_error_deg: eps.to_degrees(),
+            tip_shift,
+        };
+        let inputs = format!(
+            "start from {} (case {name}, scale {}), frame at step {} ({:.2} revolutions), positions x' = (x + 0.5) f - 0.5 \
+             with f = {:?}, at rest; impeller phase error {:.3} deg",
+            src.display(),
+            m.scale,
+            frame.step,
+            from.revolution,
+            factor,
+            from.phase_error_deg
+        );
+        let bed = Bed {
+            particles,
+            steps: 0,
+            mean_speed: 0.0,
+            max_speed: 0.0,
+            settled: true,
+            mean_height: mean_z,
+            seconds: 0.0,
+            restarts: 0,
+            relax_steps: 0,
+        };
+        return Ok(BedRecord { inputs, wet: false, bed, start_from: Some(from) });
+    }
+    let best = order.first().map_or(f64::NAN, |o| o.0.to_degrees());
+    anyhow::bail!(
+        "{}: no frame of its last {WINDOW_REVOLUTIONS} revolutions can start this run: the smallest impeller phase \
+         error is {best:.3} deg (tip shift at most {MAX_TIP_SHIFT} lattice units allowed){}",
+        what(),
+        if refused.is_empty() {
+            String::new()
+        } else {
+            format!("; refused by the case's validation: {}", refused.join("; "))
+        }
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_phase_error_is_the_angle_past_the_nearest_blade_position() {
+        let q = TAU / 4.0;
+        assert!((phase_error(q + 0.01, Some(q)) - 0.01).abs() < 1e-12);
+        assert!((phase_error(3.0 * q - 0.02, Some(q)) + 0.02).abs() < 1e-12);
+        assert!((phase_error(100.0 * TAU + 0.003, Some(q)) - 0.003).abs() < 1e-9);
+        assert_eq!(phase_error(1.234, None), 0.0, "the disk: any angle");
+    }
+
+    #[test]
+    fn positions_map_wall_onto_wall() {
+        // 63 × 63 × 60 (s = 1/4) onto 84 × 84 × 80 (s = 1/3): the walls at −½ and n − ½.
+        let f = [84.0 / 63.0, 84.0 / 63.0, 80.0 / 60.0];
+        assert_eq!(map_position([-0.5, -0.5, -0.5], f), [-0.5, -0.5, -0.5]);
+        let far = map_position([62.5, 62.5, 59.5], f);
+        for (a, b) in far.iter().zip([83.5, 83.5, 79.5]) {
+            assert!((a - b).abs() < 1e-12, "{far:?}");
+        }
+        // The centre onto the centre.
+        let c = map_position([31.0, 31.0, 29.5], f);
+        assert!((c[0] - 41.5).abs() < 1e-12 && (c[2] - 39.5).abs() < 1e-12, "{c:?}");
+    }
+}
