@@ -6,7 +6,7 @@
 # figures (each checked under 300 KB). Fields, particle histories and checkpoints stay out of
 # git. Write the archive's MANIFEST.md by hand: what the run shows, its sessions, its host.
 set -eu
-if [ $# -ne 2 ]; then sed -n '2,6p' "$0"; exit 2; fi
+if [ $# -ne 2 ]; then sed -n '2,7p' "$0"; exit 2; fi
 src=$1 dest=$2
 for f in manifest.json report.md reproduce.json statistics.json statistics.h5 run/summary.json run/timeseries.csv; do
   [ -f "$src/$f" ] || { echo "archive.sh: $src/$f is missing (not a finished reproduction?)" >&2; exit 1; }
