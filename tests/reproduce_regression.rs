@@ -19,7 +19,10 @@
 //! - a `--resume` of the finished run, with the bed read back from the cache, is accepted
 //!   and gives the same statistics;
 //! - `slurry bench --coupled --from` this run's checkpoint times the coupled step from the
-//!   checkpoint's step.
+//!   checkpoint's step;
+//! - `--start-from` this run chooses a frame with the impeller at a blade position, maps
+//!   its particles wall to wall onto the grid of scale 1/3 at rest, gives a valid stirred case,
+//!   and records the start in `start.json`, which a resume reads back.
 //!
 //! The steady state of this same case and scale is archived instead
 //! (`reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200`: 200 revolutions, steady from about
@@ -27,11 +30,10 @@
 //! against 0.537, Po 3.145 against 2.91). It took about 3.2 h of stepping on 2 cores, twenty
 //! times this test's budget. No band against the paper is asserted anywhere in CI: the
 //! resolution study that would support one (`reproduce/README.md`, "Resolution study") has
-//! two scales so far, and they disagree by more than the band: at s = 1/3
-//! (`reproduce/pbt-ld2/runs/2026-11-27-s0.33-r100`) ⟨z_p⟩/H was 0.246 at 100 revolutions,
-//! steady by its report's test but not by the current one, still rising (drift 0.0119 ± 0.0014
-//! over 20 revolutions), against 0.332 at
-//! s = 1/4; Po_f 1.856 against 1.944, falling with the single-phase impeller's Po.
+//! two steady scales so far, which give a change but no order: at s = 1/3
+//! (`reproduce/pbt-ld2/runs/2026-11-29-s0.33-r200`, steady, drift −0.0004 ± 0.0028)
+//! ⟨z_p⟩/H is 0.288 against 0.332 at s = 1/4, the paper's 0.31 between them; Po_f 1.896
+//! against 1.944, falling with the single-phase impeller's Po; Po_c 0.799 against 1.200.
 
 use slurry::reproduce::{reproduce, ReproduceOptions};
 
@@ -252,7 +254,7 @@ fn against_the_paper(r: &slurry::reproduce::report::Results) {
         r.comparison.clone(),
     )];
     for dir in
-        ["reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200", "reproduce/pbt-ld2/runs/2026-11-27-s0.33-r100"]
+        ["reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200", "reproduce/pbt-ld2/runs/2026-11-29-s0.33-r200"]
     {
         let text = std::fs::read_to_string(root.join(dir).join("statistics.json")).unwrap();
         let v: serde_json::Value = serde_json::from_str(&text).unwrap();

@@ -135,6 +135,15 @@ impl ImpellerSetup {
         2.0 * PI * n * torque / (n * n * n * d.powi(5))
     }
 
+    /// The smallest angle (radians) by which the impeller can turn onto itself: the blade
+    /// spacing `2π/n` of a PBT; `None` for the disk, which any angle does.
+    pub fn symmetry_angle(&self) -> Option<f64> {
+        match self.shape.geometry().kind {
+            ImpellerKind::Disk { .. } => None,
+            ImpellerKind::PitchedBlade { blades, .. } => Some(2.0 * PI / blades.max(1) as f64),
+        }
+    }
+
     /// The prescribed rigid body at time `t = 0` (density 1: nominal, never used).
     pub fn body(&self) -> RigidBody {
         let shape: Arc<dyn Shape> = self.shape.clone();

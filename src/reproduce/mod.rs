@@ -834,36 +834,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     }
     std::fs::create_dir_all(&opts.out).with_context(|| format!("cannot create {}", opts.out.display()))?;
     let pointer = opts.out.join(SETTLING_POINTER);
-    let start_file = opts.out.join(start::START_FILE);
-    let (bed, cached) = match &opts.start_from {
-        Some(src) => (start::start_bed(name, &scaled, src, &opts.out, opts.resume)?, false),
-        None => {
-            anyhow::ensure!(
-                !(opts.resume && start_file.exists()),
-                "{} records that this run started from another run's particles: resume it with the same --start-from",
-                start_file.display()
-            );
-            if start_file.exists() {
-                // --overwrite: the earlier run's start goes with it.
-                std::fs::remove_file(&start_file)
-                    .with_context(|| format!("--overwrite: cannot remove {}", start_file.display()))?;
-            }
-            bed(name, &scaled, opts.bed, &opts.cache, opts.quiet, Some(&pointer))?
-        }
-    };
-    if let (Some(from), false) = (&bed.start_from, opts.quiet) {
-        eprintln!(
-            "start: the particles of {} (scale {}) at step {} ({:.1} revolutions, <z_p>/H {:.3}), scaled by {:.4}, at \
-             rest; impeller phase error {:.3} deg",
-            from.dir.display(),
-            from.scale,
-            from.step,
-            from.revolution,
-            from.mean_height_over_h,
-            from.factor[2],
-            from.phase_error_deg
-        );
-    }
+    let (bed, cached) = start::start_or_bed(name, &scaled, opts, &pointer)?;
     if cached && !opts.quiet {
         eprintln!(
             "bed: from the cache ({} particles, settled in {} steps)",

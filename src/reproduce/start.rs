@@ -25,7 +25,6 @@
 //! back (the source may have moved on or gone), so that its case is the one its checkpoint was
 //! written for.
 
-use std::f64::consts::TAU;
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
@@ -34,7 +33,6 @@ use serde::{Deserialize, Serialize};
 use super::{manifest, BedRecord};
 use crate::case::{Case, MotionKind, ParticleSpec};
 use crate::io::{atomic_write_bytes, read_particle_history_from};
-use crate::rigid::impeller::ImpellerKind;
 use crate::settle::{admissible, Bed};
 
 /// The file in the output directory that records the start ([`StartFrom`]).
@@ -117,16 +115,60 @@ pub fn start_bed(
     Ok(rec)
 }
 
-/// The impeller's symmetry angle (radians): its blade spacing, `None` for the disk (any angle).
+/// The run's start, for [`super::reproduce`]: with `opts.start_from`, the record of
+/// [`start_bed`] (never from the cache); else the settled bed of [`super::bed`] (and whether it
+/// came from the cache), after refusing to resume a run that `start.json` says was started from
+/// another run, and removing an earlier run's `start.json` on a fresh start (`--overwrite`).
+///
+/// # Errors
+/// Those of [`start_bed`] and [`super::bed`]; a resume without the `--start-from` the run began
+/// with.
+pub(super) fn start_or_bed(
+    name: &str,
+    scaled: &Case,
+    opts: &super::ReproduceOptions,
+    pointer: &Path,
+) -> anyhow::Result<(BedRecord, bool)> {
+    let start_file = opts.out.join(START_FILE);
+    let (bed, cached) = match &opts.start_from {
+        Some(src) => (start_bed(name, scaled, src, &opts.out, opts.resume)?, false),
+        None => {
+            anyhow::ensure!(
+                !(opts.resume && start_file.exists()),
+                "{} records that this run started from another run's particles: resume it with the same --start-from",
+                start_file.display()
+            );
+            if start_file.exists() {
+                // --overwrite: the earlier run's start goes with it.
+                std::fs::remove_file(&start_file)
+                    .with_context(|| format!("--overwrite: cannot remove {}", start_file.display()))?;
+            }
+            super::bed(name, scaled, opts.bed, &opts.cache, opts.quiet, Some(pointer))?
+        }
+    };
+    if let (Some(from), false) = (&bed.start_from, opts.quiet) {
+        eprintln!(
+            "start: the particles of {} (scale {}) at step {} ({:.1} revolutions, <z_p>/H {:.3}), scaled by {:.4}, at \
+             rest; impeller phase error {:.3} deg",
+            from.dir.display(),
+            from.scale,
+            from.step,
+            from.revolution,
+            from.mean_height_over_h,
+            from.factor[2],
+            from.phase_error_deg
+        );
+    }
+    Ok((bed, cached))
+}
+
+/// The impeller of `case` and its symmetry angle ([`crate::case::ImpellerSetup::symmetry_angle`]).
 fn symmetry(case: &Case) -> anyhow::Result<(crate::case::ImpellerSetup, Option<f64>)> {
     let setup = case
         .impeller_setup()
         .map_err(|k| anyhow::anyhow!("{k}"))?
         .ok_or_else(|| anyhow::anyhow!("the case has no impeller"))?;
-    let period = match setup.shape.geometry().kind {
-        ImpellerKind::Disk { .. } => None,
-        ImpellerKind::PitchedBlade { blades, .. } => Some(TAU / blades.max(1) as f64),
-    };
+    let period = setup.symmetry_angle();
     Ok((setup, period))
 }
 
@@ -288,6 +330,8 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::TAU;
+
     use super::*;
 
     #[test]
@@ -297,6 +341,16 @@ mod tests {
         assert!((phase_error(3.0 * q - 0.02, Some(q)) + 0.02).abs() < 1e-12);
         assert!((phase_error(100.0 * TAU + 0.003, Some(q)) - 0.003).abs() < 1e-9);
         assert_eq!(phase_error(1.234, None), 0.0, "the disk: any angle");
+    }
+
+    #[test]
+    fn the_pbt_turns_onto_itself_by_a_quarter_turn_the_disk_by_any_angle() {
+        let angle = |name: &str| {
+            let c = super::super::paper_case(name).unwrap().case().unwrap();
+            symmetry(&c).unwrap().1
+        };
+        assert_eq!(angle("pbt-ld2"), Some(TAU / 4.0));
+        assert_eq!(angle("disk-ld2"), None);
     }
 
     #[test]
