@@ -217,6 +217,7 @@ fn pbt_ld2_reduced_run() {
     let from = rec.start_from.clone().expect("a start record");
     assert_eq!(from.factor, [84.0 / 63.0, 84.0 / 63.0, 80.0 / 60.0]);
     assert!(from.tip_shift <= MAX_TIP_SHIFT, "{from:?}");
+    assert!(from.describe().contains(&format!("at its step {} ", from.step)), "{}", from.describe());
     let hist = slurry::io::read_particle_history(&opts.out.join("run/particles.h5")).unwrap();
     let frame = hist.frames.iter().find(|f| f.step == from.step).expect("the chosen frame");
     assert_eq!(rec.bed.particles.len(), 822);

@@ -793,19 +793,10 @@ fn report_md(
     if let Some(from) = &bed.start_from {
         let _ = writeln!(
             m,
-            "- Start: **not a settled bed** (the paper's start) but the particles of the reproduction in `{}` (scale \
-             {:.3}) at its step {} ({:.1} revolutions, ⟨z_p⟩/H {:.3}), positions scaled by {:.4} to this grid, at rest \
-             (`--start-from`; the impeller {:.3}° from its start angle in that frame, tips {:.3} lattice units); mean \
-             centre height {:.2} above the floor ({:.3} H). The suspension relaxes from that state; the statistics are \
-             those of the run's own last revolutions.",
-            from.dir.display(),
-            from.scale,
-            from.step,
-            from.revolution,
-            from.mean_height_over_h,
-            from.factor[2],
-            from.phase_error_deg,
-            from.tip_shift,
+            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`); mean centre height {:.2} \
+             above the floor ({:.3} H). The suspension relaxes from that state; the statistics are those of the run's \
+             own last revolutions.",
+            from.describe(),
             bed.bed.mean_height + 0.5,
             (bed.bed.mean_height + 0.5) / g.nz as f64,
         );

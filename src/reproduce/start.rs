@@ -71,6 +71,25 @@ pub struct StartFrom {
     pub tip_shift: f64,
 }
 
+impl StartFrom {
+    /// One line for the console and the report: the source, its frame, the mapping.
+    pub fn describe(&self) -> String {
+        format!(
+            "the particles of the reproduction in `{}` (scale {:.3}) at its step {} ({:.1} revolutions, ⟨z_p⟩/H \
+             {:.3}), positions scaled by {:.4} to this grid, at rest; the impeller {:.3}° from its start angle in that \
+             frame (tips {:.3} lattice units)",
+            self.dir.display(),
+            self.scale,
+            self.step,
+            self.revolution,
+            self.mean_height_over_h,
+            self.factor[2],
+            self.phase_error_deg,
+            self.tip_shift
+        )
+    }
+}
+
 /// The bed record of a run of the scaled case `scaled` (case `name`, output directory `out`)
 /// that starts from the reproduction in `src`: chosen afresh and written to `out/start.json`
 /// (which a fresh start replaces), or, with `resume`, read back from it.
@@ -147,17 +166,7 @@ pub(super) fn start_or_bed(
         }
     };
     if let (Some(from), false) = (&bed.start_from, opts.quiet) {
-        eprintln!(
-            "start: the particles of {} (scale {}) at step {} ({:.1} revolutions, <z_p>/H {:.3}), scaled by {:.4}, at \
-             rest; impeller phase error {:.3} deg",
-            from.dir.display(),
-            from.scale,
-            from.step,
-            from.revolution,
-            from.mean_height_over_h,
-            from.factor[2],
-            from.phase_error_deg
-        );
+        eprintln!("start: {}", from.describe());
     }
     Ok((bed, cached))
 }
