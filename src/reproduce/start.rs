@@ -212,12 +212,8 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
         .with_context(|| format!("{}: cannot read {}", what(), path.display()))?
         .frames_in_file;
     anyhow::ensure!(total > 0, "{}: {} has no frames", what(), path.display());
-    // Frames per revolution from the spacing of the last two frames.
-    let tail = read_particle_history_from(&path, total.saturating_sub(2))?;
-    let spacing = match tail.frames.as_slice() {
-        [a, b] => (b.step - a.step).max(1) as f64,
-        _ => 1.0,
-    };
+    // Frames per revolution from the source's output interval (its last frame may be off it).
+    let spacing = src_case.run.output_every.max(1) as f64;
     let steps_per_rev = 1.0 / src_setup.speed().abs();
     let window = ((WINDOW_REVOLUTIONS * steps_per_rev / spacing).ceil() as usize).max(1);
     let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
