@@ -790,44 +790,38 @@ fn report_md(
         1.0 / s.schedule.steps_per_revolution,
         PI * 132.0 * s.scale / s.schedule.steps_per_revolution
     );
-    if let Some(from) = &bed.start_from {
-        let _ = writeln!(
-            m,
-            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`); mean centre height {:.2} \
-             above the floor ({:.3} H). The suspension relaxes from that state; the statistics are those of the run's \
-             own last revolutions.",
-            from.describe(),
-            bed.bed.mean_height + 0.5,
-            (bed.bed.mean_height + 0.5) / g.nz as f64,
-        );
-    } else {
-        let _ = writeln!(
-        m,
-        "- Bed: placed at random and settled {} in {} steps ({}{}), mean centre height {:.2} above the floor ({:.3} H); {}.",
-        if bed.wet {
-            "in the fluid under the case's gravity"
-        } else {
-            "dry (no fluid: amplified gravity against a linear drag)"
-        },
-        bed.bed.steps,
-        if bed.bed.settled { "settled" } else { "NOT settled: step limit" },
-        // A wet settling takes hours and may span sessions: its cost, as the run's is given.
-        if bed.wet {
-            format!(
-                "; {:.1} h of settling in {} session{}",
-                bed.bed.seconds / 3600.0,
-                bed.bed.restarts + 1,
-                if bed.bed.restarts == 0 { "" } else { "s" }
-            )
-        } else {
-            String::new()
-        },
-        // The floor is at z = −½ (half-way bounce-back): heights above it, as ⟨z_p⟩/H.
+    // The floor is at z = −½ (half-way bounce-back): heights above it, as ⟨z_p⟩/H.
+    let height = format!(
+        "mean centre height {:.2} above the floor ({:.3} H)",
         bed.bed.mean_height + 0.5,
-        (bed.bed.mean_height + 0.5) / g.nz as f64,
-        if s.bed_cached { "from the cache" } else { "made for this run" }
+        (bed.bed.mean_height + 0.5) / g.nz as f64
     );
-    }
+    let start = match &bed.start_from {
+        Some(from) => format!(
+            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`); {height}. The suspension \
+             relaxes from that state; the statistics are those of the run's own last revolutions.",
+            from.describe()
+        ),
+        None => format!(
+            "- Bed: placed at random and settled {} in {} steps ({}{}), {height}; {}.",
+            if bed.wet { "in the fluid under the case's gravity" } else { "dry (no fluid: amplified gravity against a linear drag)" },
+            bed.bed.steps,
+            if bed.bed.settled { "settled" } else { "NOT settled: step limit" },
+            // A wet settling takes hours and may span sessions: its cost, as the run's is given.
+            if bed.wet {
+                format!(
+                    "; {:.1} h of settling in {} session{}",
+                    bed.bed.seconds / 3600.0,
+                    bed.bed.restarts + 1,
+                    if bed.bed.restarts == 0 { "" } else { "s" }
+                )
+            } else {
+                String::new()
+            },
+            if s.bed_cached { "from the cache" } else { "made for this run" }
+        ),
+    };
+    let _ = writeln!(m, "{start}");
     let _ = writeln!(
         m,
         "- Run: {} steps = ramp of {} steps + {} revolutions; {:.0} s of stepping at {:.1} MLUPS on {} threads; \

@@ -171,16 +171,6 @@ pub(super) fn start_or_bed(
     Ok((bed, cached))
 }
 
-/// The impeller of `case` and its symmetry angle ([`crate::case::ImpellerSetup::symmetry_angle`]).
-fn symmetry(case: &Case) -> anyhow::Result<(crate::case::ImpellerSetup, Option<f64>)> {
-    let setup = case
-        .impeller_setup()
-        .map_err(|k| anyhow::anyhow!("{k}"))?
-        .ok_or_else(|| anyhow::anyhow!("the case has no impeller"))?;
-    let period = setup.symmetry_angle();
-    Ok((setup, period))
-}
-
 /// `angle` less the nearest multiple of `period`, in `(−period/2, period/2]`; 0 without one.
 pub fn phase_error(angle: f64, period: Option<f64>) -> f64 {
     match period {
@@ -205,8 +195,9 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
     let case_path = run.join(crate::run::files::CASE);
     let src_case =
         Case::from_file(&case_path).with_context(|| format!("{}: cannot read its case", what()))?;
-    let (src_setup, period) = symmetry(&src_case).with_context(what)?;
-    let (new_setup, _) = symmetry(scaled)?;
+    let (src_tank, src_setup) = super::report::tank_of(&src_case).with_context(what)?;
+    let period = src_setup.symmetry_angle();
+    let tip_radius = 0.5 * super::report::tank_of(scaled)?.1.diameter();
     let path = run.join(crate::run::files::PARTICLES_H5);
     let total = read_particle_history_from(&path, usize::MAX)
         .with_context(|| format!("{}: cannot read {}", what(), path.display()))?
@@ -214,8 +205,7 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
     anyhow::ensure!(total > 0, "{}: {} has no frames", what(), path.display());
     // Frames per revolution from the source's output interval (its last frame may be off it).
     let spacing = src_case.run.output_every.max(1) as f64;
-    let steps_per_rev = 1.0 / src_setup.speed().abs();
-    let window = ((WINDOW_REVOLUTIONS * steps_per_rev / spacing).ceil() as usize).max(1);
+    let window = ((WINDOW_REVOLUTIONS * src_tank.steps_per_rev / spacing).ceil() as usize).max(1);
     let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
     let grid = scaled.grid();
     let factor =
@@ -244,7 +234,6 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
         what(),
         hist.statics.len()
     );
-    let tip_radius = 0.5 * new_setup.diameter();
     let mut order: Vec<(f64, usize)> = hist
         .frames
         .iter()
@@ -285,28 +274,20 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
             continue;
         }
         let mean_z = particles.iter().map(|p| p.position[2]).sum::<f64>() / particles.len() as f64;
-        let src_h = hist.nz as f64;
-        let src_mean = frame.position.iter().map(|x| x[2]).sum::<f64>() / frame.position.len() as f64;
+        // The source frame's time and ⟨z_p⟩/H, as its report's Figure 5 has them.
+        let (revolution, mean_height_over_h) =
+            crate::stats::mean_height(std::slice::from_ref(frame), &src_tank)[0];
         let from = StartFrom {
             dir: src.to_path_buf(),
             scale: m.scale,
             step: frame.step,
-            revolution: frame.step as f64 / steps_per_rev,
-            mean_height_over_h: (src_mean + 0.5) / src_h,
+            revolution,
+            mean_height_over_h,
             factor,
             phase_error_deg: eps.to_degrees(),
             tip_shift,
         };
-        let inputs = format!(
-            "start from {} (case {name}, scale {}), frame at step {} ({:.2} revolutions), positions x' = (x + 0.5) f - 0.5 \
-             with f = {:?}, at rest; impeller phase error {:.3} deg",
-            src.display(),
-            m.scale,
-            frame.step,
-            from.revolution,
-            factor,
-            from.phase_error_deg
-        );
+        let inputs = format!("case {name}: {}", from.describe());
         let bed = Bed {
             particles,
             steps: 0,
@@ -352,7 +333,7 @@ mod tests {
     fn the_pbt_turns_onto_itself_by_a_quarter_turn_the_disk_by_any_angle() {
         let angle = |name: &str| {
             let c = super::super::paper_case(name).unwrap().case().unwrap();
-            symmetry(&c).unwrap().1
+            super::super::report::tank_of(&c).unwrap().1.symmetry_angle()
         };
         assert_eq!(angle("pbt-ld2"), Some(TAU / 4.0));
         assert_eq!(angle("disk-ld2"), None);
