@@ -52,6 +52,21 @@ enum Command {
     /// Where a reproduction stands, from its files (while it runs, or its archive): progress,
     /// speed and time left, ⟨z_p⟩/H by 10 revolutions, the steady test now, the power numbers.
     Status(StatusArgs),
+    /// Keep the end of a reproduction as a start pack: its manifest, its case and the few frames
+    /// of its last 20 revolutions that `--start-from` would choose from (a few hundred kB, for
+    /// its archive), so that `--start-from PACK` works after the output directory is gone.
+    StartPack(StartPackArgs),
+}
+
+/// `slurry start-pack`.
+#[derive(Args, Debug)]
+struct StartPackArgs {
+    /// The output directory of `slurry reproduce` (its `--out`), running or finished.
+    #[arg(value_name = "OUT")]
+    run: PathBuf,
+    /// The pack's directory (created; its files are replaced), e.g. the archive's `start/`.
+    #[arg(value_name = "PACK")]
+    pack: PathBuf,
 }
 
 /// `slurry status`.
@@ -188,6 +203,21 @@ fn cmd_resolution(a: ResolutionArgs) -> anyhow::Result<()> {
         slurry::io::atomic_write_bytes(out, text.as_bytes())
             .with_context(|| format!("cannot write {}", out.display()))?;
     }
+    Ok(())
+}
+
+/// `slurry start-pack`: the pack, then one line on what it holds.
+fn cmd_start_pack(a: StartPackArgs) -> anyhow::Result<()> {
+    let pack = slurry::reproduce::start::write_start_pack(&a.run, &a.pack)
+        .map_err(|e| BadInput(format!("{e:#}")))?;
+    let errors: Vec<String> = pack.phase_errors_deg.iter().map(|e| format!("{e:.3}")).collect();
+    println!(
+        "{}: frames at steps {:?} (impeller phase errors {} deg), particles.h5 {} bytes",
+        a.pack.display(),
+        pack.steps,
+        errors.join(", "),
+        pack.bytes
+    );
     Ok(())
 }
 
@@ -474,6 +504,7 @@ fn main() -> ExitCode {
         Command::Reproduce(a) => cmd_reproduce(a),
         Command::Resolution(a) => cmd_resolution(a),
         Command::Status(a) => cmd_status(a),
+        Command::StartPack(a) => cmd_start_pack(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -236,6 +236,24 @@ fn pbt_ld2_reduced_run() {
         serde_json::to_string(&rec).unwrap(),
         "read back on --resume"
     );
+    // A start pack of the run (`slurry start-pack`: its manifest, case and the few best frames)
+    // starts the same run as the run itself: the same frame, the same particles.
+    let pack = dir.path().join("pack");
+    let kept = slurry::reproduce::start::write_start_pack(&opts.out, &pack).unwrap();
+    assert!(
+        kept.steps.contains(&from.step) && kept.steps.len() <= slurry::reproduce::start::PACK_FRAMES,
+        "{kept:?}"
+    );
+    assert!(kept.steps.windows(2).all(|w| w[0] < w[1]), "in step order: {kept:?}");
+    let out_pack = dir.path().join("from-pack");
+    std::fs::create_dir_all(&out_pack).unwrap();
+    let via = start_bed("pbt-ld2", &third, &pack, &out_pack, false).unwrap();
+    let via_from = via.start_from.clone().unwrap();
+    assert_eq!(
+        (via_from.step, via_from.factor, via_from.dir.clone()),
+        (from.step, from.factor, pack.clone())
+    );
+    assert_eq!(via.bed.particles, rec.bed.particles, "the pack's frame is the run's frame, bit for bit");
     let other = start_bed("pbt-ld2", &third, dir.path(), &out3, true).unwrap_err();
     assert!(format!("{other:#}").contains("this run started from"), "{other:#}");
     let wrong = start_bed("pbt-ld4", &third, &opts.out, &dir.path().join("x"), false).unwrap_err();

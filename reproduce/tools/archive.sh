@@ -2,11 +2,15 @@
 # archive.sh RUN_OUT DEST : copy a finished reproduction (the --out directory of `slurry
 # reproduce`) into the checkout's archive, e.g. reproduce/CASE/runs/DATE-sSCALE/: manifest,
 # report, statistics, reproduce.json, the run's summary.json and timeseries.csv, start.json
-# (a run started with --start-from), and the PNG
-# figures (each checked under 300 KB). Fields, particle histories and checkpoints stay out of
-# git. Write the archive's MANIFEST.md by hand: what the run shows, its sessions, its host.
+# (a run started with --start-from), the PNG figures (each checked under 300 KB), and the
+# run's start pack in DEST/start/ (`slurry start-pack`: its last frames at a blade position,
+# under 1 MB, so that `--start-from DEST/start` works once RUN_OUT is gone). Fields, particle
+# histories and checkpoints stay out of git. SLURRY names the binary (default
+# target/release/slurry). Write the archive's MANIFEST.md by hand: what the run shows, its
+# sessions, its host.
 set -eu
-if [ $# -ne 2 ]; then sed -n '2,7p' "$0"; exit 2; fi
+if [ $# -ne 2 ]; then sed -n '2,10p' "$0"; exit 2; fi
+SLURRY=${SLURRY:-target/release/slurry}
 src=$1 dest=$2
 for f in manifest.json report.md reproduce.json statistics.json statistics.h5 run/summary.json run/timeseries.csv; do
   [ -f "$src/$f" ] || { echo "archive.sh: $src/$f is missing (not a finished reproduction?)" >&2; exit 1; }
@@ -21,4 +25,5 @@ cp "$src/run/summary.json" "$src/run/timeseries.csv" "$dest/"
 # A run started from another run's particles (--start-from) records that start.
 [ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
 cp "$src"/*.png "$dest/"
+"$SLURRY" start-pack "$src" "$dest/start"
 ls -la "$dest"

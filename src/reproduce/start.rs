@@ -24,6 +24,13 @@
 //! What was chosen is written to `start.json` in the output directory; a resumed run reads it
 //! back (the source may have moved on or gone), so that its case is the one its checkpoint was
 //! written for.
+//!
+//! The source is a reproduction's output directory or a **start pack** of one
+//! ([`write_start_pack`], `slurry start-pack`, which `reproduce/tools/archive.sh` writes into
+//! every archive): the same layout, with only the [`PACK_FRAMES`] frames the choice above tries
+//! first. A pack chooses the frame the run would, bit for bit, from under a megabyte that goes
+//! into git; output directories live outside the checkout and have twice been lost with the
+//! machine (2026-11-28, 2026-11-29), taking the steady states that later runs start from.
 
 use std::path::{Path, PathBuf};
 
@@ -184,29 +191,139 @@ pub fn map_position(x: [f64; 3], factor: [f64; 3]) -> [f64; 3] {
     [0, 1, 2].map(|i| (x[i] + 0.5) * factor[i] - 0.5)
 }
 
+/// A source of `--start-from`: a reproduction's output directory, or a start pack of one
+/// ([`write_start_pack`]), with its frames ranked for a start at angle 0.
+struct Source {
+    manifest: manifest::Manifest,
+    case_text: String,
+    case: Case,
+    tank: crate::stats::Tank,
+    hist: crate::io::ParticleHistory,
+    /// `(phase error, frame index)`, smallest error first; among equals, the latest frame.
+    ranked: Vec<(f64, usize)>,
+}
+
+impl Source {
+    /// Reads `src` (`what` names it in errors): its manifest, its case, and the frames of its
+    /// last [`WINDOW_REVOLUTIONS`] revolutions.
+    fn open(src: &Path, what: &dyn Fn() -> String) -> anyhow::Result<Source> {
+        let manifest = manifest::Manifest::read(src).ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: no readable {} (not a reproduction's output directory)",
+                what(),
+                manifest::FILE
+            )
+        })?;
+        let run = src.join("run");
+        let case_path = run.join(crate::run::files::CASE);
+        let case_text = std::fs::read_to_string(&case_path)
+            .with_context(|| format!("{}: cannot read its case {}", what(), case_path.display()))?;
+        let case =
+            Case::from_file(&case_path).with_context(|| format!("{}: cannot read its case", what()))?;
+        let (tank, setup) = super::report::tank_of(&case).with_context(what)?;
+        let period = setup.symmetry_angle();
+        let path = run.join(crate::run::files::PARTICLES_H5);
+        let total = read_particle_history_from(&path, usize::MAX)
+            .with_context(|| format!("{}: cannot read {}", what(), path.display()))?
+            .frames_in_file;
+        anyhow::ensure!(total > 0, "{}: {} has no frames", what(), path.display());
+        // Frames per revolution from the source's output interval (its last frame may be off it).
+        let spacing = case.run.output_every.max(1) as f64;
+        let window = ((WINDOW_REVOLUTIONS * tank.steps_per_rev / spacing).ceil() as usize).max(1);
+        let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
+        let mut ranked: Vec<(f64, usize)> = hist
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(k, f)| (phase_error(setup.motion.angle(f.step as f64), period), k))
+            .collect();
+        ranked.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()).then(b.1.cmp(&a.1)));
+        Ok(Source { manifest, case_text, case, tank, hist, ranked })
+    }
+}
+
+/// Frames a start pack keeps ([`write_start_pack`]): the best by phase error. One is used; the
+/// others stand in if the target case's validation refuses it.
+pub const PACK_FRAMES: usize = 4;
+
+/// What [`write_start_pack`] wrote.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartPack {
+    /// Steps of the frames kept, in order.
+    pub steps: Vec<u64>,
+    /// Their phase errors, degrees, in the same order.
+    pub phase_errors_deg: Vec<f64>,
+    /// Bytes of the pack's `particles.h5`.
+    pub bytes: u64,
+}
+
+/// Writes into `dest` a **start pack** of the reproduction in `src`: its `manifest.json`, its
+/// `run/case.toml`, and a `run/particles.h5` holding only the [`PACK_FRAMES`] frames of its last
+/// [`WINDOW_REVOLUTIONS`] revolutions that `--start-from` would try first (smallest impeller
+/// phase error; module docs). `--start-from dest` then chooses as `--start-from src` would,
+/// from a few hundred kilobytes that can be committed with the run's archive: the state a
+/// run ended in survives the loss of its output directory (fields and checkpoints stay out of
+/// git).
+///
+/// # Errors
+/// `src` is not a reproduction with a particle history, or `dest` cannot be written.
+pub fn write_start_pack(src: &Path, dest: &Path) -> anyhow::Result<StartPack> {
+    let what = || format!("start pack of {}", src.display());
+    let s = Source::open(src, &what)?;
+    let mut keep: Vec<usize> = s.ranked.iter().take(PACK_FRAMES).map(|&(_, k)| k).collect();
+    keep.sort_unstable();
+    let run = dest.join("run");
+    std::fs::create_dir_all(&run).with_context(|| format!("cannot create {}", run.display()))?;
+    let manifest_path = src.join(manifest::FILE);
+    let manifest_bytes =
+        std::fs::read(&manifest_path).with_context(|| format!("cannot read {}", manifest_path.display()))?;
+    atomic_write_bytes(&dest.join(manifest::FILE), &manifest_bytes)
+        .with_context(|| format!("cannot write {}", dest.join(manifest::FILE).display()))?;
+    atomic_write_bytes(&run.join(crate::run::files::CASE), s.case_text.as_bytes())
+        .with_context(|| format!("cannot write {}", run.join(crate::run::files::CASE).display()))?;
+    let statics = s
+        .hist
+        .statics
+        .iter()
+        .map(|p| {
+            let known = |v: &str, names: &[&'static str]| names.iter().copied().find(|n| *n == v);
+            Ok(crate::io::ParticleStatic {
+                shape: known(&p.shape, &["sphere", "cylinder"])
+                    .ok_or_else(|| anyhow::anyhow!("{}: unknown particle shape {:?}", what(), p.shape))?,
+                diameter: p.diameter,
+                length: p.length,
+                density: p.density,
+                volume: p.volume,
+                mass: p.mass,
+                motion: known(&p.motion, &["free", "fixed", "prescribed"])
+                    .ok_or_else(|| anyhow::anyhow!("{}: unknown particle motion {:?}", what(), p.motion))?,
+            })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let path = run.join(crate::run::files::PARTICLES_H5);
+    // The source's grid (its case's, which its history records).
+    let grid = s.case.grid();
+    let mut w = crate::io::ParticleHistoryWriter::create(&path, grid, s.hist.gravity, &statics)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    for &k in &keep {
+        w.append(&s.hist.frames[k]).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    w.finish().with_context(|| format!("cannot write {}", path.display()))?;
+    let error_of = |k: usize| s.ranked.iter().find(|r| r.1 == k).map_or(f64::NAN, |r| r.0.to_degrees());
+    Ok(StartPack {
+        steps: keep.iter().map(|&k| s.hist.frames[k].step).collect(),
+        phase_errors_deg: keep.iter().map(|&k| error_of(k)).collect(),
+        bytes: std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0),
+    })
+}
+
 /// Chooses the start frame of `src` for the scaled case `scaled` (module docs).
 fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedRecord> {
     let what = || format!("--start-from {}", src.display());
-    let m = manifest::Manifest::read(src).ok_or_else(|| {
-        anyhow::anyhow!("{}: no readable {} (not a reproduction's output directory)", what(), manifest::FILE)
-    })?;
+    let s = Source::open(src, &what)?;
+    let (m, hist, src_tank) = (&s.manifest, &s.hist, &s.tank);
     anyhow::ensure!(m.case == name, "{}: a reproduction of {}, not of {name}", what(), m.case);
-    let run = src.join("run");
-    let case_path = run.join(crate::run::files::CASE);
-    let src_case =
-        Case::from_file(&case_path).with_context(|| format!("{}: cannot read its case", what()))?;
-    let (src_tank, src_setup) = super::report::tank_of(&src_case).with_context(what)?;
-    let period = src_setup.symmetry_angle();
     let tip_radius = 0.5 * super::report::tank_of(scaled)?.1.diameter();
-    let path = run.join(crate::run::files::PARTICLES_H5);
-    let total = read_particle_history_from(&path, usize::MAX)
-        .with_context(|| format!("{}: cannot read {}", what(), path.display()))?
-        .frames_in_file;
-    anyhow::ensure!(total > 0, "{}: {} has no frames", what(), path.display());
-    // Frames per revolution from the source's output interval (its last frame may be off it).
-    let spacing = src_case.run.output_every.max(1) as f64;
-    let window = ((WINDOW_REVOLUTIONS * src_tank.steps_per_rev / spacing).ceil() as usize).max(1);
-    let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
     let grid = scaled.grid();
     let factor =
         [grid.nx as f64 / hist.nx as f64, grid.ny as f64 / hist.ny as f64, grid.nz as f64 / hist.nz as f64];
@@ -234,14 +351,7 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
         what(),
         hist.statics.len()
     );
-    let mut order: Vec<(f64, usize)> = hist
-        .frames
-        .iter()
-        .enumerate()
-        .map(|(k, f)| (phase_error(src_setup.motion.angle(f.step as f64), period), k))
-        .collect();
-    // Smallest phase error first; among equals, the latest frame.
-    order.sort_by(|a, b| a.0.abs().total_cmp(&b.0.abs()).then(b.1.cmp(&a.1)));
+    let order = &s.ranked;
     let mut refused = Vec::new();
     for &(eps, k) in order.iter().take(MAX_TRIED) {
         let tip_shift = tip_radius * eps.abs();
@@ -276,7 +386,7 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
         let mean_z = particles.iter().map(|p| p.position[2]).sum::<f64>() / particles.len() as f64;
         // The source frame's time and ⟨z_p⟩/H, as its report's Figure 5 has them.
         let (revolution, mean_height_over_h) =
-            crate::stats::mean_height(std::slice::from_ref(frame), &src_tank)[0];
+            crate::stats::mean_height(std::slice::from_ref(frame), src_tank)[0];
         let from = StartFrom {
             dir: src.to_path_buf(),
             scale: m.scale,
