@@ -53,7 +53,7 @@ enum Command {
     /// speed and time left, ⟨z_p⟩/H by 10 revolutions, the steady test now, the power numbers.
     Status(StatusArgs),
     /// Keep the end of a reproduction as a start pack: its manifest, its case and the few frames
-    /// of its last 20 revolutions that `--start-from` would choose from (a few hundred kB, for
+    /// of its last 20 revolutions that `--start-from` would choose from (under 1 MB, for
     /// its archive), so that `--start-from PACK` works after the output directory is gone.
     StartPack(StartPackArgs),
 }

@@ -29,8 +29,9 @@
 //! ([`write_start_pack`], `slurry start-pack`, which `reproduce/tools/archive.sh` writes into
 //! every archive): the same layout, with only the [`PACK_FRAMES`] frames the choice above tries
 //! first. A pack chooses the frame the run would, bit for bit, from under a megabyte that goes
-//! into git; output directories live outside the checkout and have twice been lost with the
-//! machine (2026-11-28, 2026-11-29), taking the steady states that later runs start from.
+//! into git; output directories live outside the checkout and have been lost with the machine
+//! four times (2026-11-26 to 2026-11-29), on 2026-11-29 with the steady state a run had started
+//! from.
 
 use std::path::{Path, PathBuf};
 
@@ -38,7 +39,7 @@ use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::{manifest, BedRecord};
-use crate::case::{Case, MotionKind, ParticleSpec};
+use crate::case::{Case, MotionKind, ParticleSpec, ShapeKind};
 use crate::io::{atomic_write_bytes, read_particle_history_from};
 use crate::settle::{admissible, Bed};
 
@@ -218,8 +219,8 @@ impl Source {
         let case_path = run.join(crate::run::files::CASE);
         let case_text = std::fs::read_to_string(&case_path)
             .with_context(|| format!("{}: cannot read its case {}", what(), case_path.display()))?;
-        let case =
-            Case::from_file(&case_path).with_context(|| format!("{}: cannot read its case", what()))?;
+        let case = Case::parse(&case_text, &case_path)
+            .with_context(|| format!("{}: cannot read its case", what()))?;
         let (tank, setup) = super::report::tank_of(&case).with_context(what)?;
         let period = setup.symmetry_angle();
         let path = run.join(crate::run::files::PARTICLES_H5);
@@ -261,7 +262,7 @@ pub struct StartPack {
 /// `run/case.toml`, and a `run/particles.h5` holding only the [`PACK_FRAMES`] frames of its last
 /// [`WINDOW_REVOLUTIONS`] revolutions that `--start-from` would try first (smallest impeller
 /// phase error; module docs). `--start-from dest` then chooses as `--start-from src` would,
-/// from a few hundred kilobytes that can be committed with the run's archive: the state a
+/// from under a megabyte (0.9 MB at 822 particles) that goes into the run's archive: the state a
 /// run ended in survives the loss of its output directory (fields and checkpoints stay out of
 /// git).
 ///
@@ -270,8 +271,9 @@ pub struct StartPack {
 pub fn write_start_pack(src: &Path, dest: &Path) -> anyhow::Result<StartPack> {
     let what = || format!("start pack of {}", src.display());
     let s = Source::open(src, &what)?;
-    let mut keep: Vec<usize> = s.ranked.iter().take(PACK_FRAMES).map(|&(_, k)| k).collect();
-    keep.sort_unstable();
+    // The frames the choice tries first, in step order, with their phase errors.
+    let mut keep: Vec<(f64, usize)> = s.ranked.iter().take(PACK_FRAMES).copied().collect();
+    keep.sort_unstable_by_key(|&(_, k)| k);
     let run = dest.join("run");
     std::fs::create_dir_all(&run).with_context(|| format!("cannot create {}", run.display()))?;
     let manifest_path = src.join(manifest::FILE);
@@ -286,17 +288,19 @@ pub fn write_start_pack(src: &Path, dest: &Path) -> anyhow::Result<StartPack> {
         .statics
         .iter()
         .map(|p| {
-            let known = |v: &str, names: &[&'static str]| names.iter().copied().find(|n| *n == v);
+            // The names the case's kinds give (`ParticleStatic` holds `'static` ones).
             Ok(crate::io::ParticleStatic {
-                shape: known(&p.shape, &["sphere", "cylinder"])
-                    .ok_or_else(|| anyhow::anyhow!("{}: unknown particle shape {:?}", what(), p.shape))?,
+                shape: ShapeKind::deserialize(kind(&p.shape))
+                    .map_err(|e| anyhow::anyhow!("{}: particle shape {:?}: {e}", what(), p.shape))?
+                    .name(),
                 diameter: p.diameter,
                 length: p.length,
                 density: p.density,
                 volume: p.volume,
                 mass: p.mass,
-                motion: known(&p.motion, &["free", "fixed", "prescribed"])
-                    .ok_or_else(|| anyhow::anyhow!("{}: unknown particle motion {:?}", what(), p.motion))?,
+                motion: MotionKind::deserialize(kind(&p.motion))
+                    .map_err(|e| anyhow::anyhow!("{}: particle motion {:?}: {e}", what(), p.motion))?
+                    .name(),
             })
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
@@ -305,16 +309,20 @@ pub fn write_start_pack(src: &Path, dest: &Path) -> anyhow::Result<StartPack> {
     let grid = s.case.grid();
     let mut w = crate::io::ParticleHistoryWriter::create(&path, grid, s.hist.gravity, &statics)
         .with_context(|| format!("cannot write {}", path.display()))?;
-    for &k in &keep {
+    for &(_, k) in &keep {
         w.append(&s.hist.frames[k]).with_context(|| format!("cannot write {}", path.display()))?;
     }
     w.finish().with_context(|| format!("cannot write {}", path.display()))?;
-    let error_of = |k: usize| s.ranked.iter().find(|r| r.1 == k).map_or(f64::NAN, |r| r.0.to_degrees());
     Ok(StartPack {
-        steps: keep.iter().map(|&k| s.hist.frames[k].step).collect(),
-        phase_errors_deg: keep.iter().map(|&k| error_of(k)).collect(),
+        steps: keep.iter().map(|&(_, k)| s.hist.frames[k].step).collect(),
+        phase_errors_deg: keep.iter().map(|&(e, _)| e.to_degrees()).collect(),
         bytes: std::fs::metadata(&path).map(|m| m.len()).unwrap_or(0),
     })
+}
+
+/// `v` as a deserializer, to read a kind of the case module by its name.
+fn kind(v: &str) -> serde::de::value::StrDeserializer<'_, serde::de::value::Error> {
+    serde::de::value::StrDeserializer::new(v)
 }
 
 /// Chooses the start frame of `src` for the scaled case `scaled` (module docs).
