@@ -15,6 +15,8 @@
 //!   solids volume; the orientation pdfs integrate to 1);
 //! - the run lasted the time asked for, and ⟨z_p⟩/H stays below ½ (the paper:
 //!   "well below 0.5" at every state);
+//! - its `statistics.json` records that it started from a dry bed, as `slurry resolution`
+//!   reads it back;
 //! - the snapshot of ⟨z_p⟩/H, the profiles, the orientation pdfs and the power numbers;
 //! - a `--resume` of the finished run, with the bed read back from the cache, is accepted
 //!   and gives the same statistics;
@@ -87,6 +89,10 @@ fn pbt_ld2_reduced_run() {
     assert!((r.revolutions - 1.1).abs() < 1e-9, "t N at the end: {}", r.revolutions);
     assert!(r.mean_height_final > 0.0 && r.mean_height_final < 0.5, "<z_p>/H = {}", r.mean_height_final);
     assert!(!r.steady, "a 0.6-revolution run cannot be steady");
+    // How it started is recorded (`statistics.json`), and the resolution study reads it back.
+    assert_eq!((r.start, r.start_from.is_none()), (slurry::reproduce::report::START_DRY_BED, true));
+    let (_, point) = slurry::reproduce::resolution::read_point(&opts.out).unwrap();
+    assert_eq!(point.start, Some(slurry::reproduce::resolution::Start::DryBed));
     // Self-consistency: the volume-fraction profile holds the solids volume, the pdfs are
     // normalised.
     let st = &r.stats;

@@ -16,6 +16,11 @@
 //! point of a resolution study. Each run is read from its report's `statistics.json` (the
 //! `--out` directory of `slurry reproduce`, or an archive of it), so the study can be redrawn
 //! whenever a scale finishes.
+//!
+//! Each row names how its run started ([`Start`]): from a settled bed, as the paper's runs, or
+//! from another run's particles (`--start-from`, the level approached from above). A steady
+//! point of the second kind counts, and the table says under it that its level is the bed's
+//! only if the steady state does not depend on the start.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -34,6 +39,39 @@ pub const QUANTITIES: [(&str, &str); 4] =
 /// The smallest ratio of neighbouring scales in a study: closer scales (e.g. 0.333 and 0.3333)
 /// are the same resolution, and an order fitted across them would be noise.
 pub const MIN_SCALE_RATIO: f64 = 1.05;
+
+/// How a point's run started (its report's `start` and `start_from`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Start {
+    /// A bed settled dry (every run before `--start-from`).
+    DryBed,
+    /// A bed settled in the fluid (`--bed wet`).
+    WetBed,
+    /// Another run's particles (`--start-from`): the suspension came to its level from that
+    /// state, from above when it was higher.
+    From {
+        /// The source's scale.
+        scale: f64,
+        /// The source frame's ⟨z_p⟩/H.
+        mean_height: f64,
+    },
+}
+
+impl Start {
+    /// The table's cell.
+    pub fn label(&self) -> String {
+        match self {
+            Start::DryBed => "dry bed".into(),
+            Start::WetBed => "wet bed".into(),
+            Start::From { scale, mean_height } => {
+                format!(
+                    "from s = {} at ⟨z_p⟩/H {mean_height:.3}",
+                    crate::util::fmt_num((scale * 1e4).round() / 1e4)
+                )
+            }
+        }
+    }
+}
 
 /// One scale of the study: one run's report.
 #[derive(Clone, Debug, PartialEq)]
@@ -57,6 +95,8 @@ pub struct Point {
     pub power_covered: Option<bool>,
     /// The values of [`QUANTITIES`], in order (`None`: not in the report).
     pub values: [Option<f64>; 4],
+    /// How the run started (`None`: not recorded, reports before 2026-11-29).
+    pub start: Option<Start>,
 }
 
 impl Point {
@@ -109,8 +149,34 @@ pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
         drift: num("steady_drift").filter(|v| v.is_finite()),
         power_covered: json.get("power_covered").and_then(serde_json::Value::as_bool),
         values: QUANTITIES.map(|(k, _)| num(k).filter(|v| v.is_finite())),
+        start: read_start(&json).with_context(|| format!("{}: \"start\"", path.display()))?,
     };
     Ok((case, point))
+}
+
+/// The report's `start` (and, for `"start-from"`, its `start_from`); `None` where the report
+/// predates the record.
+fn read_start(json: &serde_json::Value) -> anyhow::Result<Option<Start>> {
+    let Some(start) = json.get("start") else { return Ok(None) };
+    Ok(Some(match start.as_str() {
+        Some(super::report::START_DRY_BED) => Start::DryBed,
+        Some(super::report::START_WET_BED) => Start::WetBed,
+        Some(super::report::START_FROM) => {
+            let from = json.get("start_from").context("\"start-from\" without a \"start_from\" record")?;
+            let num = |k: &str| from.get(k).and_then(serde_json::Value::as_f64);
+            Start::From {
+                scale: num("scale").context("\"start_from\" has no number \"scale\"")?,
+                mean_height: num("mean_height_over_h")
+                    .context("\"start_from\" has no number \"mean_height_over_h\"")?,
+            }
+        }
+        _ => anyhow::bail!(
+            "{start}: expected \"{}\", \"{}\" or \"{}\"",
+            super::report::START_DRY_BED,
+            super::report::START_WET_BED,
+            super::report::START_FROM
+        ),
+    }))
 }
 
 /// What three or more steady points say about one quantity.
@@ -193,8 +259,8 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
          more than a limit.\n",
         STEADY_REVOLUTIONS, STEADY_DRIFT
     );
-    let mut header = "| s | d | t N at the end | steady | drift | power window covered |".to_string();
-    let mut rule = "|---|---|---|---|---|---|".to_string();
+    let mut header = "| s | d | t N at the end | start | steady | drift | power window covered |".to_string();
+    let mut rule = "|---|---|---|---|---|---|---|".to_string();
     for (_, label) in QUANTITIES {
         header += &format!(" {label} |");
         rule += "---|";
@@ -205,10 +271,11 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
             format!("{d:+.4}{}", if d.abs() > STEADY_DRIFT { " †" } else { "" })
         });
         let mut row = format!(
-            "| {} | {} | {} | {} | {drift} | {} |",
+            "| {} | {} | {} | {} | {} | {drift} | {} |",
             fmt_scale(p.scale),
             crate::util::fmt_num((12.0 * p.scale * 100.0).round() / 100.0),
             if p.revolutions.is_finite() { format!("{:.0}", p.revolutions) } else { "–".into() },
+            p.start.map_or("not recorded".to_string(), |st| st.label()),
             if p.steady { "yes" } else { "no" },
             match p.power_covered {
                 Some(true) => "yes",
@@ -225,11 +292,28 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
         }
         let _ = writeln!(s, "{row}");
     }
-    let mut row = "| paper | 12 | | | | |".to_string();
+    let mut row = "| paper | 12 | | bed settled in the liquid | | | |".to_string();
     for (key, _) in QUANTITIES {
         row += &format!(" {} |", paper_of(key).map_or("–".to_string(), |v| format!("{v}")));
     }
     let _ = writeln!(s, "{row}");
+
+    // A level reached from another run's state is the bed's only if the steady state does not
+    // depend on the start: say so wherever the steady points did not all start from a bed.
+    let from: Vec<String> = points
+        .iter()
+        .filter(|p| p.steady && matches!(p.start, Some(Start::From { .. })))
+        .map(|p| fmt_scale(p.scale))
+        .collect();
+    if !from.is_empty() {
+        let _ = writeln!(
+            s,
+            "\n**Not every steady point started from a bed**: s = {} started from another run's particles \
+             (`--start-from`). Its level counts as that scale's only if the steady state does not depend on \
+             the start, which is shown where a run from the bed reached the same level at that scale.",
+            from.join(", ")
+        );
+    }
 
     let _ = writeln!(s, "\n## Convergence\n");
     let _ = writeln!(
@@ -313,6 +397,7 @@ mod tests {
             drift: None,
             power_covered: None,
             values: values.map(Some),
+            start: Some(Start::DryBed),
         }
     }
 
@@ -355,19 +440,55 @@ mod tests {
         .unwrap();
         let t = table("pbt-ld2", &pts).unwrap();
         assert!(
-            t.contains("| 0.25 | 3 | 200 | yes | +0.0068 † | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
+            t.contains("| 0.25 | 3 | 200 | dry bed | yes | +0.0068 † | not recorded | 0.332 | 1.944 | 1.200 | 3.145 |"),
             "{t}"
         );
-        assert!(t.contains("| 0.3333 | 4 | 200 | yes | +0.0119 † | not recorded | 0.246 |"), "{t}");
+        assert!(t.contains("| 0.3333 | 4 | 200 | dry bed | yes | +0.0119 † | not recorded | 0.246 |"), "{t}");
         assert!(
-            t.contains("| 0.5 | 6 | 200 | no | – | not recorded | *0.310* | *2.000* | *1.000* | *3.000* |"),
+            t.contains(
+                "| 0.5 | 6 | 200 | dry bed | no | – | not recorded | *0.310* | *2.000* | *1.000* | *3.000* |"
+            ),
             "{t}"
         );
-        assert!(t.contains("| paper | 12 | | | | | 0.31 | 2.37 | 0.537 | 2.91 |"), "{t}");
+        assert!(
+            t.contains("| paper | 12 | | bed settled in the liquid | | | | 0.31 | 2.37 | 0.537 | 2.91 |"),
+            "{t}"
+        );
         assert!(
             t.contains("| ⟨z_p⟩/H | -0.086 (s 0.25 → 0.3333) | – (2 steady scales; needs 3) | – | 0.31 |"),
             "{t}"
         );
+    }
+
+    #[test]
+    fn a_point_started_from_another_run_is_labelled_and_the_table_says_what_that_means() {
+        let dir = std::env::temp_dir().join(format!("slurry-resolution-start-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("statistics.json"),
+            r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "mean_height": 0.3,
+                "start": "start-from", "start_from": {"scale": 0.25, "mean_height_over_h": 0.3224}}"#,
+        )
+        .unwrap();
+        let (_, top) = read_point(&dir).unwrap();
+        assert_eq!(top.start, Some(Start::From { scale: 0.25, mean_height: 0.3224 }));
+        std::fs::write(dir.join("statistics.json"), r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true}"#)
+            .unwrap();
+        assert_eq!(read_point(&dir).unwrap().1.start, None, "reports before the record");
+        std::fs::remove_dir_all(&dir).unwrap();
+
+        let mut pts = vec![point(0.25, true, [0.332; 4]), point(1.0 / 3.0, true, [0.288; 4])];
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(!t.contains("Not every steady point"), "{t}");
+        pts.push(Point { start: top.start, ..point(0.5, true, [0.3; 4]) });
+        pts[0].start = None;
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(t.contains("| 0.5 | 6 | 200 | from s = 0.25 at ⟨z_p⟩/H 0.322 | yes |"), "{t}");
+        assert!(t.contains("| 0.25 | 3 | 200 | not recorded | yes |"), "{t}");
+        assert!(t.contains("**Not every steady point started from a bed**: s = 0.5 started"), "{t}");
+        // A transient started from another run is no point: no note for it.
+        pts[2].steady = false;
+        assert!(!table("pbt-ld2", &pts).unwrap().contains("Not every steady point"));
     }
 
     #[test]
@@ -407,7 +528,10 @@ mod tests {
             assert_eq!(convergence(&pts, q), Convergence::TooFew(2), "quantity {q}");
         }
         let t = table("pbt-ld2", &pts).unwrap();
-        assert!(t.contains("| 0.5 | 6 | 200 | yes | – | no | 0.357 | *0.357* | *0.357* | *0.357* |"), "{t}");
+        assert!(
+            t.contains("| 0.5 | 6 | 200 | dry bed | yes | – | no | 0.357 | *0.357* | *0.357* | *0.357* |"),
+            "{t}"
+        );
         // Out of order, the fit claims nothing (and does not panic).
         pts[2].power_covered = None;
         pts.swap(0, 2);
@@ -430,6 +554,14 @@ mod tests {
                 &["\"case\"", "unknown case 'pbt-ld3'"][..],
             ),
             (r#"{"scale": 0.5, "steady": true}"#, &["no \"case\""][..]),
+            (
+                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": "sideways"}"#,
+                &["\"start\"", "\"sideways\": expected \"dry bed\", \"wet bed\" or \"start-from\""][..],
+            ),
+            (
+                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": "start-from"}"#,
+                &["\"start-from\" without a \"start_from\" record"][..],
+            ),
         ] {
             std::fs::write(&file, json).unwrap();
             let e = format!("{:#}", read_point(&dir).unwrap_err());
