@@ -54,7 +54,8 @@ enum Command {
     Status(StatusArgs),
     /// Keep the end of a reproduction as a start pack: its manifest, its case and the few frames
     /// of its last 20 revolutions that `--start-from` would choose from (under 1 MB, for
-    /// its archive), so that `--start-from PACK` works after the output directory is gone.
+    /// its archive), so that `--start-from PACK` works after the output directory is gone
+    /// (`--at T`: of the 20 revolutions ending at its time T instead, an earlier state).
     StartPack(StartPackArgs),
 }
 
@@ -67,6 +68,11 @@ struct StartPackArgs {
     /// The pack's directory (created; its files are replaced), e.g. the archive's `start/`.
     #[arg(value_name = "PACK")]
     pack: PathBuf,
+    /// Take the frames from the 20 revolutions that end at the run's time T (in revolutions
+    /// t N, the ramp counting 1, as its report's Figure 5), not from its last 20: an earlier,
+    /// lower state, to approach a finer scale's level from below.
+    #[arg(long, value_name = "T")]
+    at: Option<f64>,
 }
 
 /// `slurry status`.
@@ -208,7 +214,7 @@ fn cmd_resolution(a: ResolutionArgs) -> anyhow::Result<()> {
 
 /// `slurry start-pack`: the pack, then one line on what it holds.
 fn cmd_start_pack(a: StartPackArgs) -> anyhow::Result<()> {
-    let pack = slurry::reproduce::start::write_start_pack(&a.run, &a.pack)
+    let pack = slurry::reproduce::start::write_start_pack(&a.run, &a.pack, a.at)
         .map_err(|e| BadInput(format!("{e:#}")))?;
     let errors: Vec<String> = pack.phase_errors_deg.iter().map(|e| format!("{e:.3}")).collect();
     println!(

@@ -24,7 +24,8 @@
 //!   checkpoint's step;
 //! - `--start-from` this run chooses a frame with the impeller at a blade position, maps
 //!   its particles wall to wall onto the grid of scale 1/3 at rest, gives a valid stirred case,
-//!   and records the start in `start.json`, which a resume reads back.
+//!   and records the start in `start.json`, which a resume reads back; its start pack gives
+//!   the same frame bit for bit, and a pack `--at` an earlier time holds only frames of then.
 //!
 //! The steady state of this same case and scale is archived instead
 //! (`reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200`: 200 revolutions, steady from about
@@ -245,7 +246,7 @@ fn pbt_ld2_reduced_run() {
     // A start pack of the run (`slurry start-pack`: its manifest, case and the few best frames)
     // starts the same run as the run itself: the same frame, the same particles.
     let pack = dir.path().join("pack");
-    let kept = slurry::reproduce::start::write_start_pack(&opts.out, &pack).unwrap();
+    let kept = slurry::reproduce::start::write_start_pack(&opts.out, &pack, None).unwrap();
     assert!(
         kept.steps.contains(&from.step) && kept.steps.len() <= slurry::reproduce::start::PACK_FRAMES,
         "{kept:?}"
@@ -260,6 +261,23 @@ fn pbt_ld2_reduced_run() {
         (from.step, from.factor, pack.clone())
     );
     assert_eq!(via.bed.particles, rec.bed.particles, "the pack's frame is the run's frame, bit for bit");
+    // `--at T`: the frames of the 20 revolutions ending at the run's time T (here within the
+    // ramp, t N ≤ 0.6: steps ≤ 600), and a start from them; T outside the run is refused.
+    let early = dir.path().join("pack-early");
+    let kept = slurry::reproduce::start::write_start_pack(&opts.out, &early, Some(0.6)).unwrap();
+    assert!(!kept.steps.is_empty() && kept.steps.iter().all(|&s| s <= 600), "{kept:?}");
+    let out_early = dir.path().join("from-early");
+    std::fs::create_dir_all(&out_early).unwrap();
+    let at = start_bed("pbt-ld2", &third, &early, &out_early, false).unwrap().start_from.unwrap();
+    assert!(kept.steps.contains(&at.step) && at.revolution <= 0.6, "{at:?}");
+    for (t, needle) in [
+        (5.0, "--at 5: allowed 0 < t ≤ 1.20, the time of its last frame (step 1200"),
+        (-1.0, "--at -1: must be finite and > 0"),
+    ] {
+        let e = slurry::reproduce::start::write_start_pack(&opts.out, &dir.path().join("x"), Some(t))
+            .unwrap_err();
+        assert!(format!("{e:#}").contains(needle), "{e:#}");
+    }
     let other = start_bed("pbt-ld2", &third, dir.path(), &out3, true).unwrap_err();
     assert!(format!("{other:#}").contains("this run started from"), "{other:#}");
     let wrong = start_bed("pbt-ld4", &third, &opts.out, &dir.path().join("x"), false).unwrap_err();

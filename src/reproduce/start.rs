@@ -28,8 +28,9 @@
 //! The source is a reproduction's output directory or a **start pack** of one
 //! ([`write_start_pack`], `slurry start-pack`, which `reproduce/tools/archive.sh` writes into
 //! every archive): the same layout, with only the [`PACK_FRAMES`] frames the choice above tries
-//! first. A pack chooses the frame the run would, bit for bit, from under a megabyte that goes
-//! into git; output directories live outside the checkout and have been lost with the machine
+//! first (or, with `--at T`, those of the 20 revolutions ending at the source's time `T`: an
+//! earlier, lower state, to approach a finer scale's level from below). A pack chooses the
+//! frame the run would, bit for bit, from under a megabyte that goes into git; output directories live outside the checkout and have been lost with the machine
 //! four times (2026-11-26 to 2026-11-29), on 2026-11-29 with the steady state a run had started
 //! from.
 
@@ -206,8 +207,10 @@ struct Source {
 
 impl Source {
     /// Reads `src` (`what` names it in errors): its manifest, its case, and the frames of its
-    /// last [`WINDOW_REVOLUTIONS`] revolutions.
-    fn open(src: &Path, what: &dyn Fn() -> String) -> anyhow::Result<Source> {
+    /// last [`WINDOW_REVOLUTIONS`] revolutions, or, with `at = Some(t)`, of the
+    /// [`WINDOW_REVOLUTIONS`] revolutions that end at its time `t` (`t N`, the ramp counting 1,
+    /// as [`StartFrom::revolution`] and the report's Figure 5).
+    fn open(src: &Path, what: &dyn Fn() -> String, at: Option<f64>) -> anyhow::Result<Source> {
         let manifest = manifest::Manifest::read(src).ok_or_else(|| {
             anyhow::anyhow!(
                 "{}: no readable {} (not a reproduction's output directory)",
@@ -231,7 +234,37 @@ impl Source {
         // Frames per revolution from the source's output interval (its last frame may be off it).
         let spacing = case.run.output_every.max(1) as f64;
         let window = ((WINDOW_REVOLUTIONS * tank.steps_per_rev / spacing).ceil() as usize).max(1);
-        let hist = read_particle_history_from(&path, total.saturating_sub(window))?;
+        let hist = match at {
+            None => read_particle_history_from(&path, total.saturating_sub(window))?,
+            Some(t) => {
+                anyhow::ensure!(t.is_finite() && t > 0.0, "{}: --at {t}: must be finite and > 0", what());
+                let (lo, hi) = ((t - WINDOW_REVOLUTIONS) * tank.steps_per_rev, t * tank.steps_per_rev);
+                let last = read_particle_history_from(&path, total - 1)?.frames.last().map_or(0, |f| f.step);
+                anyhow::ensure!(
+                    hi <= last as f64,
+                    "{}: --at {t}: allowed 0 < t ≤ {:.2}, the time of its last frame (step {last}, in \
+                     revolutions t N, the ramp counting 1)",
+                    what(),
+                    last as f64 / tank.steps_per_rev
+                );
+                // Frames are `spacing` steps apart from step 0 (a resume rewrites those after its
+                // checkpoint): start a window early, and keep those in (lo, hi]. Where frames are
+                // missing (a history with a lost stretch), read them all.
+                let first = ((lo / spacing).floor().max(0.0) as usize).saturating_sub(window);
+                let mut h = read_particle_history_from(&path, first)?;
+                if first > 0 && h.frames.first().is_some_and(|f| f.step as f64 > lo) {
+                    h = read_particle_history_from(&path, 0)?;
+                }
+                h.frames.retain(|f| (f.step as f64) > lo && (f.step as f64) <= hi);
+                anyhow::ensure!(
+                    !h.frames.is_empty(),
+                    "{}: no frame within t N {:.2}–{t}",
+                    what(),
+                    t - WINDOW_REVOLUTIONS
+                );
+                h
+            }
+        };
         let mut ranked: Vec<(f64, usize)> = hist
             .frames
             .iter()
@@ -266,11 +299,18 @@ pub struct StartPack {
 /// run ended in survives the loss of its output directory (fields and checkpoints stay out of
 /// git).
 ///
+/// With `at = Some(t)` the frames come from the [`WINDOW_REVOLUTIONS`] revolutions ending at
+/// the source's time `t` instead (`t N`, the ramp counting 1): an earlier state of the run, e.g.
+/// one below the level a finer scale reaches, to approach that level from below
+/// (`--start-from dest` then chooses among these frames; [`StartFrom`] records the frame's step,
+/// time and ⟨z_p⟩/H).
+///
 /// # Errors
-/// `src` is not a reproduction with a particle history, or `dest` cannot be written.
-pub fn write_start_pack(src: &Path, dest: &Path) -> anyhow::Result<StartPack> {
+/// `src` is not a reproduction with a particle history, `t` is not within its time, or `dest`
+/// cannot be written.
+pub fn write_start_pack(src: &Path, dest: &Path, at: Option<f64>) -> anyhow::Result<StartPack> {
     let what = || format!("start pack of {}", src.display());
-    let s = Source::open(src, &what)?;
+    let s = Source::open(src, &what, at)?;
     // The frames the choice tries first, in step order, with their phase errors.
     let mut keep: Vec<(f64, usize)> = s.ranked.iter().take(PACK_FRAMES).copied().collect();
     keep.sort_unstable_by_key(|&(_, k)| k);
@@ -328,7 +368,7 @@ fn kind(v: &str) -> serde::de::value::StrDeserializer<'_, serde::de::value::Erro
 /// Chooses the start frame of `src` for the scaled case `scaled` (module docs).
 fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedRecord> {
     let what = || format!("--start-from {}", src.display());
-    let s = Source::open(src, &what)?;
+    let s = Source::open(src, &what, None)?;
     let (m, hist, src_tank) = (&s.manifest, &s.hist, &s.tank);
     anyhow::ensure!(m.case == name, "{}: a reproduction of {}, not of {name}", what(), m.case);
     let tip_radius = 0.5 * super::report::tank_of(scaled)?.1.diameter();
