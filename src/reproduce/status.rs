@@ -5,6 +5,7 @@
 //! (`OUT/run/timeseries.csv` of a run directory, or `OUT/timeseries.csv` of an archive; a last
 //! row still being written is left out), it prints:
 //!
+//! - where it started, when not from a bed: the source of `--start-from` (`OUT/start.json`);
 //! - the progress: the last step written against the end of the leg the run is in, in
 //!   revolutions after the ramp (`--until-steady CAP` goes on past `--revolutions` in legs of
 //!   [`STEADY_CHECK_REVOLUTIONS`] up to `CAP`, as `reproduce` does), and, while the manifest says
@@ -95,6 +96,15 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     let target = leg_target(&case, manifest.revolutions, manifest.until_steady, last_step);
     let leg = schedule(&case, target)?;
     let age = age_s(&path);
+    let start_file = out.join(super::start::START_FILE);
+    let start = match std::fs::read_to_string(&start_file) {
+        Ok(t) => {
+            serde_json::from_str::<super::BedRecord>(&t)
+                .with_context(|| format!("{}: not a start record", start_file.display()))?
+                .start_from
+        }
+        Err(_) => None,
+    };
     let view = View {
         steps_per_rev: first.steps_per_revolution,
         ramp_steps: first.ramp_steps as f64,
@@ -103,6 +113,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
         nodes,
         grid: (grid.nx, grid.ny, grid.nz),
         age,
+        start,
     };
     Ok(describe(&manifest, &ts, &view))
 }
@@ -164,6 +175,8 @@ struct View {
     grid: (usize, usize, usize),
     /// Seconds since the time series was last written.
     age: Option<f64>,
+    /// The source of `--start-from` (`OUT/start.json`), if the run started from one.
+    start: Option<super::start::StartFrom>,
 }
 
 /// `OUT/run/timeseries.csv` (a run directory) if it exists, else `OUT/timeseries.csv` (an
@@ -226,6 +239,9 @@ fn describe(m: &Manifest, ts: &TimeSeries, v: &View) -> String {
                 )),
             last.git_revision
         );
+    }
+    if let Some(from) = &v.start {
+        let _ = writeln!(s, "start: {}", from.describe());
     }
     let ramp_end = v.ramp_steps / v.steps_per_rev;
     let (Some(&t_last), Some(step)) = (ts.time.last(), ts.last_step(v.steps_per_rev)) else {
@@ -446,6 +462,50 @@ mod tests {
         let text = status(dir.path()).unwrap();
         assert!(text.contains("1–11† ") && text.contains("21–31† "), "{text}");
         assert!(text.contains("11–21 0.") && text.contains("31–41* 0."), "{text}");
+    }
+
+    /// A run started from another run's particles says so, from its `start.json`; a
+    /// `start.json` that is not a start record is named.
+    #[test]
+    fn a_run_started_from_another_runs_particles_says_so() {
+        let dir = synthetic_run([0u64, 67386].into_iter());
+        let from = crate::reproduce::start::StartFrom {
+            dir: std::path::PathBuf::from("reproduce/pbt-ld2/runs/2026-11-29-s0.25-main/start"),
+            scale: 0.25,
+            step: 140_750,
+            revolution: 140.75,
+            mean_height_over_h: 0.3224,
+            factor: [4.0 / 3.0; 3],
+            phase_error_deg: 0.0,
+            tip_shift: 0.0,
+        };
+        let bed = crate::settle::Bed {
+            particles: Vec::new(),
+            steps: 0,
+            mean_speed: 0.0,
+            max_speed: 0.0,
+            settled: true,
+            mean_height: 20.0,
+            seconds: 0.0,
+            restarts: 0,
+            relax_steps: 0,
+        };
+        let rec =
+            crate::reproduce::BedRecord { inputs: String::new(), wet: false, bed, start_from: Some(from) };
+        let file = dir.path().join(crate::reproduce::start::START_FILE);
+        assert!(!status(dir.path()).unwrap().contains("start:"), "no start.json: from a bed");
+        std::fs::write(&file, serde_json::to_string(&rec).unwrap()).unwrap();
+        let text = status(dir.path()).unwrap();
+        assert!(
+            text.contains(
+                "start: the particles of the reproduction in `reproduce/pbt-ld2/runs/2026-11-29-s0.25-main/start` \
+                 (scale 0.250) at its step 140750 (140.8 revolutions, ⟨z_p⟩/H 0.322)"
+            ),
+            "{text}"
+        );
+        std::fs::write(&file, "{").unwrap();
+        let e = format!("{:#}", status(dir.path()).unwrap_err());
+        assert!(e.contains("start.json: not a start record"), "{e}");
     }
 
     #[test]
