@@ -33,7 +33,7 @@ def load(d):
     with open(f"{d}/run/case.toml", "rb") as f:
         c = tomllib.load(f)
     speed, nz = abs(c["impeller"]["speed"]), c["domain"]["nz"]
-    tip = speed * 132.0 * nz / 240.0 * math.pi  # angular speed in revolutions per step × π D, D = 132 s
+    tip = math.pi * c["impeller"]["diameter"] * speed  # π D N, N in revolutions per step
     g = h5py.File(f"{d}/run/particles.h5", "r")
     steps, pos, vel = [g["step"][:]], [g["position"][:]], [g["velocity"][:]]
     for seg in sorted(glob.glob(f"{d}/run/particles.frames/*.h5")):

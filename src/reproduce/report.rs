@@ -6,7 +6,7 @@
 //! | file | contents |
 //! |---|---|
 //! | `statistics.h5` | ⟨z_p⟩/H series, profiles, orientation pdfs, power averages ([`crate::stats`]) |
-//! | `statistics.json` | the scalar results, how the run started (`start`: dry bed, wet bed or `--start-from`), and the comparison with the paper |
+//! | `statistics.json` | the scalar results, how the run started (`start`: `{"kind": "dry-bed"}`, `"wet-bed"` or `"start-from"` with the source), and the comparison with the paper |
 //! | `midplane.h5`, `midplane.xmf` | the last step's velocity on the vertical plane through the axis (ParaView) |
 //! | `fig03_midplane` or `fig04_midplane` `.png/.svg` | the paper's Figure 3 (disk) or 4 (PBT): \|u\|/v_tip on that plane with the cylinders' sections, at the end |
 //! | `fig03_midplane_rev010`, `…_rev090` (disk) or `fig04_…` (PBT) | the same at 10 and 90 revolutions after the impeller's start, as in the paper (from the run's `fields-STEP.h5` snapshots, when the run reached them) |
@@ -328,25 +328,15 @@ pub struct Results {
     /// Whether the series covers the whole power window ([`stats::PowerAverages::covered`]:
     /// long enough, and without a lost stretch).
     pub power_covered: bool,
-    /// How the run started: [`START_DRY_BED`], [`START_WET_BED`] or [`START_FROM`] (another
-    /// run's particles, [`Results::start_from`]). Absent from reports written before
+    /// How the run started ([`super::BedRecord::start`]). Absent from reports written before
     /// 2026-11-29 (all of which started from a dry bed).
-    pub start: &'static str,
-    /// With `--start-from`: the source, its scale, its frame and that frame's ⟨z_p⟩/H.
-    pub start_from: Option<super::start::StartFrom>,
+    pub start: super::RunStart,
     /// The comparison with the paper.
     pub comparison: Vec<Comparison>,
     /// The profiles and series.
     #[serde(skip)]
     pub stats: stats::Stats,
 }
-
-/// [`Results::start`] of a run from a bed settled dry.
-pub const START_DRY_BED: &str = "dry bed";
-/// [`Results::start`] of a run from a bed settled in the fluid (`--bed wet`).
-pub const START_WET_BED: &str = "wet bed";
-/// [`Results::start`] of a run from another run's particles (`--start-from`).
-pub const START_FROM: &str = "start-from";
 
 /// `x` to 6 significant digits (the snapshot's number format).
 fn sig6(x: f64) -> String {
@@ -509,12 +499,7 @@ pub fn write_all(
         po_std: power.po_std,
         power_window: (power.from_rev, power.to_rev, power.samples),
         power_covered: power.covered,
-        start: match (&bed.start_from, bed.wet) {
-            (Some(_), _) => START_FROM,
-            (None, true) => START_WET_BED,
-            (None, false) => START_DRY_BED,
-        },
-        start_from: bed.start_from.clone(),
+        start: bed.start(),
         comparison,
         stats: st.clone(),
     };

@@ -17,7 +17,7 @@
 //! `--out` directory of `slurry reproduce`, or an archive of it), so the study can be redrawn
 //! whenever a scale finishes.
 //!
-//! Each row names how its run started ([`Start`]): from a settled bed, as the paper's runs, or
+//! Each row names how its run started ([`RunStart`]): from a settled bed, as the paper's runs, or
 //! from another run's particles (`--start-from`, the level approached from above). A steady
 //! point of the second kind counts, and the table says under it that its level is the bed's
 //! only if the steady state does not depend on the start.
@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use super::report::{STEADY_DRIFT, STEADY_REVOLUTIONS};
-use super::{check_scale, paper_case};
+use super::{check_scale, paper_case, RunStart};
 use crate::io::atomic_write_bytes;
 use crate::util::richardson3;
 
@@ -39,39 +39,6 @@ pub const QUANTITIES: [(&str, &str); 4] =
 /// The smallest ratio of neighbouring scales in a study: closer scales (e.g. 0.333 and 0.3333)
 /// are the same resolution, and an order fitted across them would be noise.
 pub const MIN_SCALE_RATIO: f64 = 1.05;
-
-/// How a point's run started (its report's `start` and `start_from`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Start {
-    /// A bed settled dry (every run before `--start-from`).
-    DryBed,
-    /// A bed settled in the fluid (`--bed wet`).
-    WetBed,
-    /// Another run's particles (`--start-from`): the suspension came to its level from that
-    /// state, from above when it was higher.
-    From {
-        /// The source's scale.
-        scale: f64,
-        /// The source frame's ⟨z_p⟩/H.
-        mean_height: f64,
-    },
-}
-
-impl Start {
-    /// The table's cell.
-    pub fn label(&self) -> String {
-        match self {
-            Start::DryBed => "dry bed".into(),
-            Start::WetBed => "wet bed".into(),
-            Start::From { scale, mean_height } => {
-                format!(
-                    "from s = {} at ⟨z_p⟩/H {mean_height:.3}",
-                    crate::util::fmt_num((scale * 1e4).round() / 1e4)
-                )
-            }
-        }
-    }
-}
 
 /// One scale of the study: one run's report.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,7 +63,7 @@ pub struct Point {
     /// The values of [`QUANTITIES`], in order (`None`: not in the report).
     pub values: [Option<f64>; 4],
     /// How the run started (`None`: not recorded, reports before 2026-11-29).
-    pub start: Option<Start>,
+    pub start: Option<RunStart>,
 }
 
 impl Point {
@@ -149,34 +116,13 @@ pub fn read_point(dir: &Path) -> anyhow::Result<(String, Point)> {
         drift: num("steady_drift").filter(|v| v.is_finite()),
         power_covered: json.get("power_covered").and_then(serde_json::Value::as_bool),
         values: QUANTITIES.map(|(k, _)| num(k).filter(|v| v.is_finite())),
-        start: read_start(&json).with_context(|| format!("{}: \"start\"", path.display()))?,
+        start: json
+            .get("start")
+            .map(|v| serde_json::from_value::<RunStart>(v.clone()))
+            .transpose()
+            .with_context(|| format!("{}: \"start\"", path.display()))?,
     };
     Ok((case, point))
-}
-
-/// The report's `start` (and, for `"start-from"`, its `start_from`); `None` where the report
-/// predates the record.
-fn read_start(json: &serde_json::Value) -> anyhow::Result<Option<Start>> {
-    let Some(start) = json.get("start") else { return Ok(None) };
-    Ok(Some(match start.as_str() {
-        Some(super::report::START_DRY_BED) => Start::DryBed,
-        Some(super::report::START_WET_BED) => Start::WetBed,
-        Some(super::report::START_FROM) => {
-            let from = json.get("start_from").context("\"start-from\" without a \"start_from\" record")?;
-            let num = |k: &str| from.get(k).and_then(serde_json::Value::as_f64);
-            Start::From {
-                scale: num("scale").context("\"start_from\" has no number \"scale\"")?,
-                mean_height: num("mean_height_over_h")
-                    .context("\"start_from\" has no number \"mean_height_over_h\"")?,
-            }
-        }
-        _ => anyhow::bail!(
-            "{start}: expected \"{}\", \"{}\" or \"{}\"",
-            super::report::START_DRY_BED,
-            super::report::START_WET_BED,
-            super::report::START_FROM
-        ),
-    }))
 }
 
 /// What three or more steady points say about one quantity.
@@ -275,7 +221,7 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
             fmt_scale(p.scale),
             crate::util::fmt_num((12.0 * p.scale * 100.0).round() / 100.0),
             if p.revolutions.is_finite() { format!("{:.0}", p.revolutions) } else { "–".into() },
-            p.start.map_or("not recorded".to_string(), |st| st.label()),
+            p.start.as_ref().map_or("not recorded".to_string(), RunStart::label),
             if p.steady { "yes" } else { "no" },
             match p.power_covered {
                 Some(true) => "yes",
@@ -302,7 +248,7 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     // depend on the start: say so wherever the steady points did not all start from a bed.
     let from: Vec<String> = points
         .iter()
-        .filter(|p| p.steady && matches!(p.start, Some(Start::From { .. })))
+        .filter(|p| p.steady && matches!(p.start, Some(RunStart::StartFrom(_))))
         .map(|p| fmt_scale(p.scale))
         .collect();
     if !from.is_empty() {
@@ -397,7 +343,7 @@ mod tests {
             drift: None,
             power_covered: None,
             values: values.map(Some),
-            start: Some(Start::DryBed),
+            start: Some(RunStart::DryBed),
         }
     }
 
@@ -464,14 +410,27 @@ mod tests {
     fn a_point_started_from_another_run_is_labelled_and_the_table_says_what_that_means() {
         let dir = std::env::temp_dir().join(format!("slurry-resolution-start-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
+        let from = RunStart::StartFrom(crate::reproduce::start::StartFrom {
+            dir: PathBuf::from("reproduce/pbt-ld2/runs/2026-11-29-s0.25-main/start"),
+            scale: 0.25,
+            step: 140_750,
+            revolution: 140.75,
+            mean_height_over_h: 0.3224,
+            factor: [2.0; 3],
+            phase_error_deg: 0.0,
+            tip_shift: 0.0,
+        });
+        let json = serde_json::json!({"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": from});
+        assert_eq!(json["start"]["kind"], "start-from", "{json}");
+        std::fs::write(dir.join("statistics.json"), json.to_string()).unwrap();
+        let (_, top) = read_point(&dir).unwrap();
+        assert_eq!(top.start, Some(from));
         std::fs::write(
             dir.join("statistics.json"),
-            r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "mean_height": 0.3,
-                "start": "start-from", "start_from": {"scale": 0.25, "mean_height_over_h": 0.3224}}"#,
+            r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": {"kind": "dry-bed"}}"#,
         )
         .unwrap();
-        let (_, top) = read_point(&dir).unwrap();
-        assert_eq!(top.start, Some(Start::From { scale: 0.25, mean_height: 0.3224 }));
+        assert_eq!(read_point(&dir).unwrap().1.start, Some(RunStart::DryBed));
         std::fs::write(dir.join("statistics.json"), r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true}"#)
             .unwrap();
         assert_eq!(read_point(&dir).unwrap().1.start, None, "reports before the record");
@@ -555,12 +514,15 @@ mod tests {
             ),
             (r#"{"scale": 0.5, "steady": true}"#, &["no \"case\""][..]),
             (
-                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": "sideways"}"#,
-                &["\"start\"", "\"sideways\": expected \"dry bed\", \"wet bed\" or \"start-from\""][..],
+                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": {"kind": "sideways"}}"#,
+                &[
+                    "\"start\"",
+                    "unknown variant `sideways`, expected one of `dry-bed`, `wet-bed`, `start-from`",
+                ][..],
             ),
             (
-                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": "start-from"}"#,
-                &["\"start-from\" without a \"start_from\" record"][..],
+                r#"{"case": "pbt-ld2", "scale": 0.5, "steady": true, "start": {"kind": "start-from"}}"#,
+                &["\"start\"", "missing field `dir`"][..],
             ),
         ] {
             std::fs::write(&file, json).unwrap();

@@ -116,15 +116,13 @@ pub fn start_bed(
 ) -> anyhow::Result<BedRecord> {
     let file = out.join(START_FILE);
     if resume {
-        let text = std::fs::read_to_string(&file).with_context(|| {
+        let rec = read_start_record(out)?.with_context(|| {
             format!(
-                "--start-from {} with --resume: {} cannot be read (this run was not started with --start-from)",
+                "--start-from {} with --resume: there is no {} (this run was not started with --start-from)",
                 src.display(),
                 file.display()
             )
         })?;
-        let rec: BedRecord = serde_json::from_str(&text)
-            .with_context(|| format!("{} is not a start record", file.display()))?;
         let Some(from) = &rec.start_from else {
             anyhow::bail!("{} records no --start-from source", file.display());
         };
@@ -141,6 +139,21 @@ pub fn start_bed(
     let json = serde_json::to_string(&rec).context("cannot serialise the start record")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
     Ok(rec)
+}
+
+/// The start record of the run in `out` (its [`START_FILE`]), `None` if it has none (it
+/// started from a bed).
+///
+/// # Errors
+/// The file exists but cannot be read, or is not a start record; the message names it.
+pub fn read_start_record(out: &Path) -> anyhow::Result<Option<BedRecord>> {
+    let file = out.join(START_FILE);
+    let text = match std::fs::read_to_string(&file) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(e).with_context(|| format!("cannot read {}", file.display())),
+    };
+    serde_json::from_str(&text).with_context(|| format!("{} is not a start record", file.display())).map(Some)
 }
 
 /// The run's start, for [`super::reproduce`]: with `opts.start_from`, the record of

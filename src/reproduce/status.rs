@@ -96,15 +96,7 @@ pub fn status(out: &Path) -> anyhow::Result<String> {
     let target = leg_target(&case, manifest.revolutions, manifest.until_steady, last_step);
     let leg = schedule(&case, target)?;
     let age = age_s(&path);
-    let start_file = out.join(super::start::START_FILE);
-    let start = match std::fs::read_to_string(&start_file) {
-        Ok(t) => {
-            serde_json::from_str::<super::BedRecord>(&t)
-                .with_context(|| format!("{}: not a start record", start_file.display()))?
-                .start_from
-        }
-        Err(_) => None,
-    };
+    let start = super::start::read_start_record(out)?.and_then(|r| r.start_from);
     let view = View {
         steps_per_rev: first.steps_per_revolution,
         ramp_steps: first.ramp_steps as f64,
@@ -505,7 +497,7 @@ mod tests {
         );
         std::fs::write(&file, "{").unwrap();
         let e = format!("{:#}", status(dir.path()).unwrap_err());
-        assert!(e.contains("start.json: not a start record"), "{e}");
+        assert!(e.contains("start.json is not a start record"), "{e}");
     }
 
     #[test]
