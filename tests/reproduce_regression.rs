@@ -91,9 +91,9 @@ fn pbt_ld2_reduced_run() {
     assert!(r.mean_height_final > 0.0 && r.mean_height_final < 0.5, "<z_p>/H = {}", r.mean_height_final);
     assert!(!r.steady, "a 0.6-revolution run cannot be steady");
     // How it started is recorded (`statistics.json`), and the resolution study reads it back.
-    assert_eq!(r.start, slurry::reproduce::RunStart::DryBed);
+    assert_eq!(r.start, slurry::reproduce::start::RunStart::DryBed);
     let (_, point) = slurry::reproduce::resolution::read_point(&opts.out).unwrap();
-    assert_eq!(point.start, Some(slurry::reproduce::RunStart::DryBed));
+    assert_eq!(point.start, Some(slurry::reproduce::start::RunStart::DryBed));
     // Self-consistency: the volume-fraction profile holds the solids volume, the pdfs are
     // normalised.
     let st = &r.stats;

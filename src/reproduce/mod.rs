@@ -491,45 +491,6 @@ pub struct BedRecord {
     pub start_from: Option<start::StartFrom>,
 }
 
-/// How a stirred run started (`statistics.json`'s `start`, `{"kind": …}`): a settled bed or
-/// another run's particles.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "kebab-case")]
-pub enum RunStart {
-    /// A bed settled dry.
-    DryBed,
-    /// A bed settled in the fluid (`--bed wet`).
-    WetBed,
-    /// Another run's particles (`--start-from`): the source, its frame and its ⟨z_p⟩/H.
-    StartFrom(start::StartFrom),
-}
-
-impl RunStart {
-    /// A table cell: "dry bed", "wet bed" or "from s = 0.25 at ⟨z_p⟩/H 0.322".
-    pub fn label(&self) -> String {
-        match self {
-            RunStart::DryBed => "dry bed".into(),
-            RunStart::WetBed => "wet bed".into(),
-            RunStart::StartFrom(f) => format!(
-                "from s = {} at ⟨z_p⟩/H {:.3}",
-                crate::util::fmt_num((f.scale * 1e4).round() / 1e4),
-                f.mean_height_over_h
-            ),
-        }
-    }
-}
-
-impl BedRecord {
-    /// How a run from this record starts.
-    pub fn start(&self) -> RunStart {
-        match (&self.start_from, self.wet) {
-            (Some(from), _) => RunStart::StartFrom(from.clone()),
-            (None, true) => RunStart::WetBed,
-            (None, false) => RunStart::DryBed,
-        }
-    }
-}
-
 /// How the bed is settled (`slurry reproduce --bed dry|wet`).
 #[derive(Clone, Copy, Debug)]
 pub enum BedMethod {

@@ -330,7 +330,7 @@ pub struct Results {
     pub power_covered: bool,
     /// How the run started ([`super::BedRecord::start`]). Absent from reports written before
     /// 2026-11-29 (all of which started from a dry bed).
-    pub start: super::RunStart,
+    pub start: super::start::RunStart,
     /// The comparison with the paper.
     pub comparison: Vec<Comparison>,
     /// The profiles and series.

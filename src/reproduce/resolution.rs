@@ -28,7 +28,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 use super::report::{STEADY_DRIFT, STEADY_REVOLUTIONS};
-use super::{check_scale, paper_case, RunStart};
+use super::start::RunStart;
+use super::{check_scale, paper_case};
 use crate::io::atomic_write_bytes;
 use crate::util::richardson3;
 
