@@ -23,6 +23,8 @@
 //!   particles;
 //! - [`case`]: case files (TOML) and their validation;
 //! - [`io`]: HDF5/XDMF fields, CSV time series, checkpoints, particle histories, atomic writes;
+//! - [`interrupt`]: SIGINT and SIGTERM as a request to stop at the next complete state, the
+//!   long loops' checkpoint written first;
 //! - [`drive`]: what the drivers share: the solver built from a case, the particle output;
 //! - [`run`]: driving a case from start to output;
 //! - [`settle`]: settling a case's particles to a bed (in the fluid, or dry for the
@@ -41,6 +43,7 @@ pub mod contact;
 pub mod coupling;
 pub mod drive;
 pub mod ibm;
+pub mod interrupt;
 pub mod io;
 pub mod lattice;
 pub mod lbm;

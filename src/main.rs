@@ -502,6 +502,13 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     // Errors are reported once, as `error: …` lines, never as HDF5's own stack dump.
     hdf5::silence_errors(true);
+    // SIGINT and SIGTERM: the stepping loops stop at their next complete state with a
+    // checkpoint; anywhere else the process ends at once, as without the handler.
+    if let Err(e) = slurry::interrupt::install() {
+        eprintln!(
+            "warning: cannot handle SIGINT and SIGTERM ({e}); a signal ends the run without a checkpoint"
+        );
+    }
     let result = match cli.command {
         Command::Run(a) => cmd_run(a),
         Command::Settle(a) => cmd_settle(a),
@@ -516,7 +523,9 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<CaseError>().is_some()
+            if let Some(stop) = e.downcast_ref::<slurry::interrupt::Interrupted>() {
+                ExitCode::from(stop.signal.exit_status())
+            } else if e.downcast_ref::<CaseError>().is_some()
                 || e.downcast_ref::<BadInput>().is_some()
                 || e.downcast_ref::<slurry::run::BadResume>().is_some()
                 || e.downcast_ref::<slurry::run::WouldOverwrite>().is_some()

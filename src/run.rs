@@ -11,6 +11,12 @@
 //! (atomically, after a health check) every that many steps; `--resume` restores it after a
 //! kill at any moment and continues bitwise identically.
 //!
+//! **Stopping.** SIGINT (Ctrl-C) or SIGTERM ([`crate::interrupt`]) stops the stepping at the
+//! next even step: after a health check the state is written to `checkpoint.h5` (with or
+//! without `run.checkpoint_every`) and the run ends with [`crate::interrupt::Interrupted`],
+//! naming the step; `--resume` continues it bitwise identically. A second signal ends the
+//! process at once.
+//!
 //! **Particles.** When the case has particles, the fluid and the bodies of
 //! [`Case::bodies`] are stepped together by [`Coupled`] (options from
 //! [`Case::coupling_params`]); at every output step the time series gains the particle
@@ -38,6 +44,7 @@ use serde::Serialize;
 use crate::case::{Case, ImpellerSetup, Precision};
 use crate::coupling::{Coupled, CoupledState, CouplingError};
 use crate::drive::{self, particle_frame, particle_statics};
+use crate::interrupt;
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
@@ -358,7 +365,9 @@ fn run_typed<T: Real + hdf5::H5Type>(
 ) -> anyhow::Result<RunSummary> {
     let start = Instant::now();
     let mut session = Session::<T>::start(case, out_dir, opts)?;
+    let armed = interrupt::arm();
     let stepped = session.step_to_end(opts.quiet, start)?;
+    drop(armed);
     session.finish(&stepped, start)
 }
 
@@ -538,6 +547,15 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             if step >= total {
                 break;
             }
+            if let Some(signal) = interrupt::requested() {
+                // The state is complete only after an even number of steps; from an odd one
+                // the block below stops after one step.
+                if step.is_multiple_of(2) {
+                    progress.abandon();
+                    let checkpoint_written = checkpoint_due && self.resumed_at != Some(step);
+                    return Err(self.stop(signal, step, last_good, checkpoint_written, mach_limit));
+                }
+            }
             // Advance to the next output or checkpoint point.
             let mut next = (step / output_every + 1) * output_every;
             if let Some(c) = checkpoint_every {
@@ -550,14 +568,28 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             let block_start = Instant::now();
             // On a worker of the pool: the parallel loops of the step then queue their jobs on
             // the worker's own deque instead of rayon's global injector, which allocates (the
-            // warm coupled step allocates nothing: tests/no_alloc_in_step.rs).
-            if let Err(e) = rayon::scope(|_| self.solver.run(block)) {
-                progress.abandon();
-                return Err(anyhow::anyhow!(
-                    "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
-                    next.min(total)
-                ));
-            }
+            // warm coupled step allocates nothing: tests/no_alloc_in_step.rs). A step at a
+            // time, so that a stop request ends the block at the next even step.
+            let solver = &mut self.solver;
+            let stepped_block = rayon::scope(|_| -> Result<u64, CouplingError> {
+                for done in 1..=block {
+                    solver.run(1)?;
+                    if interrupt::requested().is_some() && solver.fluid().time().is_multiple_of(2) {
+                        return Ok(done);
+                    }
+                }
+                Ok(block)
+            });
+            let block = match stepped_block {
+                Ok(n) => n,
+                Err(e) => {
+                    progress.abandon();
+                    return Err(anyhow::anyhow!(
+                        "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
+                        next.min(total)
+                    ));
+                }
+            };
             let block_time = block_start.elapsed();
             stepped.step_time += block_time;
             block_mlups = nodes * block as f64 / block_time.as_secs_f64().max(1e-9) / 1e6;
@@ -578,6 +610,44 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         }
         progress.finish_and_clear();
         Ok(stepped)
+    }
+
+    /// The stop that `signal` asked for at (even) step `step`: after a health check the state
+    /// is written to `checkpoint.h5` unless `checkpoint_written` (the step's own checkpoint),
+    /// the time series synced; the error to return, [`crate::interrupt::Interrupted`] (or the
+    /// health check's [`NumericalError`], the last good checkpoint left in place, or the
+    /// failed write's).
+    fn stop(
+        &mut self,
+        signal: interrupt::Signal,
+        step: u64,
+        last_good: u64,
+        checkpoint_written: bool,
+        mach_limit: f64,
+    ) -> anyhow::Error {
+        let health = self.solver.fluid().health(mach_limit);
+        if !health.is_ok() {
+            let timeseries = self.timeseries_path.clone();
+            return NumericalError { step, last_good, health, timeseries }.into();
+        }
+        if !checkpoint_written {
+            if let Err(e) = self.write_checkpoint() {
+                return e.context(format!("stopped by {signal} at step {step}, but the checkpoint failed"));
+            }
+        }
+        if let Err(e) = self.timeseries.sync() {
+            return anyhow::Error::new(e).context(format!("cannot sync {}", self.timeseries_path.display()));
+        }
+        interrupt::Interrupted {
+            signal,
+            step,
+            saved: format!(
+                "the state is in {} (the time series to the last output step before it); \
+                 `--resume` continues the run from there",
+                self.checkpoint_path.display()
+            ),
+        }
+        .into()
     }
 
     /// The time-series row of output step `step` and the particles' frame; returns the

@@ -32,6 +32,7 @@ use anyhow::Context;
 use crate::case::{Case, ParticleSpec, Precision};
 use crate::coupling::Coupled;
 use crate::drive::{self, particle_frame, particle_statics};
+use crate::interrupt;
 use crate::io::{atomic_write_bytes, ParticleHistoryWriter};
 use crate::lbm::Real;
 use crate::rigid::Vec3;
@@ -339,6 +340,7 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
     let mut speed = if earlier.is_some() { mean_speed(&c) } else { f64::INFINITY };
     let mut settled = false;
     let mut last_checkpoint = Instant::now();
+    let _armed = interrupt::arm();
     while steps < opts.max_steps {
         rayon::scope(|_| c.run(every))
             .map_err(|e| anyhow::anyhow!("the coupled step failed at step {steps}: {e}"))?;
@@ -359,9 +361,10 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
             settled = true;
             break;
         }
+        let stop = interrupt::requested();
         if let Some(p) = checkpoint {
             let due = last_checkpoint.elapsed().as_secs_f64() >= opts.checkpoint_every_s;
-            if due || steps >= opts.max_steps {
+            if due || stop.is_some() || steps >= opts.max_steps {
                 let seconds = seconds_before + start.elapsed().as_secs_f64();
                 write_settling(
                     &c,
@@ -379,6 +382,14 @@ fn in_fluid_typed<T: Real + hdf5::H5Type>(
                 )?;
                 last_checkpoint = Instant::now();
             }
+        }
+        if let Some(signal) = stop {
+            // At a check, so that a resume's checks fall on the uninterrupted settling's steps.
+            let saved = match checkpoint {
+                Some(p) => format!("the settling is in {}; the same command resumes it", p.display()),
+                None => "nothing was saved (this settling keeps no checkpoint)".to_string(),
+            };
+            return Err(interrupt::Interrupted { signal, step: steps, saved }.into());
         }
     }
     let bodies = &c.bodies()[..inits.len()];

@@ -1,9 +1,11 @@
 //! Checkpoints and `slurry run --resume`: a run killed with SIGKILL at an arbitrary moment and
 //! resumed gives bitwise the same fields, checkpoint and time series (physics columns) as a
-//! run that was never interrupted; a checkpoint of another case is refused.
+//! run that was never interrupted; a checkpoint of another case is refused. A run stopped by
+//! SIGINT or SIGTERM writes a checkpoint where it stops (exit status 130 or 143) and resumes
+//! from it bitwise likewise.
 
 use std::path::Path;
-use std::process::Command;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
@@ -264,4 +266,108 @@ fn switch_contacts_resumes_under_another_contact_scheme_only() {
     let kept = 5 * per_frame;
     assert!(x[..kept].iter().zip(&y[..kept]).all(|(p, q)| p.to_bits() == q.to_bits()));
     assert!(physics_rows(&b.join("timeseries.csv")).last().unwrap().starts_with("400,"));
+}
+
+/// Starts `slurry run CASE --out OUT`, sends it `signal` once its time series holds `rows`
+/// rows, and waits for it.
+fn signalled_run(case: &Path, out: &Path, signal: i32, rows: usize) -> std::process::Output {
+    let mut child = Command::new(BIN)
+        .args(["run"])
+        .arg(case)
+        .arg("--out")
+        .arg(out)
+        .arg("--quiet")
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let series = out.join("timeseries.csv");
+    let t0 = Instant::now();
+    // Header and `rows` rows.
+    while std::fs::read_to_string(&series).map_or(0, |t| t.lines().count()) < rows + 1 {
+        if let Some(status) = child.try_wait().unwrap() {
+            panic!("the run ended ({status}) before the signal was sent: make it longer");
+        }
+        assert!(t0.elapsed() < Duration::from_secs(120), "no {rows} rows after 120 s");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    // SAFETY: kill(2) on our own child, which has not been waited for, so its pid is live.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    child.wait_with_output().unwrap()
+}
+
+/// The step at which a stopped run says it stopped (`stopped by … at step N: …`).
+fn stopped_at(stderr: &str) -> u64 {
+    let rest = stderr.split_once(" at step ").unwrap_or_else(|| panic!("no stop reported: {stderr}")).1;
+    rest.split(|c: char| !c.is_ascii_digit()).next().unwrap().parse().unwrap()
+}
+
+/// SIGTERM stops a run with particles and contacts, whose case asks for no checkpoints, at an
+/// even step with a checkpoint of that step (exit status 143, the step, the checkpoint and
+/// `--resume` named); resumed, its particle histories, fields and time series are the
+/// uninterrupted run's, bit for bit.
+#[test]
+fn sigterm_stops_at_a_checkpoint_and_the_resume_is_bitwise() {
+    let tmp = tempfile::tempdir().unwrap();
+    let steps = 6000;
+    let text = particle_case_with(steps, "[contacts]", 2.8).replace("\ncheckpoint_every = 100", "");
+    assert!(!text.contains("checkpoint_every"));
+    let c = write_case(tmp.path(), "c.toml", &text);
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    let out = run(&c, &a, false);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!a.join("checkpoint.h5").exists(), "no checkpoint was asked for");
+
+    let out = signalled_run(&c, &b, libc::SIGTERM, 8);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(143), "{err}");
+    for needle in ["stopped by SIGTERM at step", "checkpoint.h5", "--resume"] {
+        assert!(err.contains(needle), "`{needle}` not in: {err}");
+    }
+    let step = stopped_at(&err);
+    assert!(step.is_multiple_of(2) && step >= 350 && step < steps, "stopped at step {step}");
+    let checkpoint = hdf5::File::open(b.join("checkpoint.h5")).unwrap();
+    assert_eq!(checkpoint.attr("time_step").unwrap().read_scalar::<u64>().unwrap(), step);
+    assert!(!read(&b.join("checkpoint.h5"), "bodies").is_empty(), "the particles' states");
+    let last_row = physics_rows(&b.join("timeseries.csv")).last().unwrap().clone();
+    let last_row_step: u64 = last_row.split(',').next().unwrap().parse().unwrap();
+    assert!(last_row_step <= step && step - last_row_step < 50, "last row {last_row_step}, stop {step}");
+    common::assert_no_temp_files(&b);
+
+    let out = run(&c, &b, true);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["position", "quaternion", "velocity", "angular_velocity", "force", "torque", "time"] {
+        let (x, y) = (read(&a.join("particles.h5"), name), read(&b.join("particles.h5"), name));
+        assert_eq!(x.len(), y.len(), "{name}: frame count");
+        assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "{name} differs");
+    }
+    assert_eq!(read(&a.join("fields.h5"), "velocity"), read(&b.join("fields.h5"), "velocity"));
+    assert_eq!(physics_rows(&a.join("timeseries.csv")), physics_rows(&b.join("timeseries.csv")));
+}
+
+/// SIGINT (Ctrl-C) stops a fluid-only run the same way (exit status 130), between its own
+/// checkpoints; the resume gives the uninterrupted run's fields and time series bitwise.
+#[test]
+fn sigint_stops_a_fluid_run_at_a_checkpoint_and_the_resume_is_bitwise() {
+    let tmp = tempfile::tempdir().unwrap();
+    let steps = 20_000;
+    let c = write_case(tmp.path(), "c.toml", &case(steps, 0.05));
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    assert!(run(&c, &a, false).status.success());
+
+    let out = signalled_run(&c, &b, libc::SIGINT, 4);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(130), "{err}");
+    assert!(err.contains("stopped by SIGINT (Ctrl-C) at step"), "{err}");
+    let step = stopped_at(&err);
+    assert!(step.is_multiple_of(2) && step >= 300 && step < steps, "stopped at step {step}");
+    let checkpoint = hdf5::File::open(b.join("checkpoint.h5")).unwrap();
+    assert_eq!(checkpoint.attr("time_step").unwrap().read_scalar::<u64>().unwrap(), step);
+
+    let out = run(&c, &b, true);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    for name in ["density", "velocity"] {
+        let (x, y) = (read(&a.join("fields.h5"), name), read(&b.join("fields.h5"), name));
+        assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "{name} differs");
+    }
+    assert_eq!(physics_rows(&a.join("timeseries.csv")), physics_rows(&b.join("timeseries.csv")));
 }

@@ -383,6 +383,62 @@ fn settle_resumes_from_its_checkpoint() {
     assert_eq!(toml(&whole), toml(&parts));
 }
 
+/// SIGTERM during a settling stops it at its next check with its checkpoint (exit status
+/// 143, the step and the checkpoint named); run again, it resumes there and ends with the bed
+/// of an uninterrupted settling, bit for bit.
+#[test]
+fn settle_stopped_by_sigterm_keeps_its_checkpoint_and_resumes_bitwise() {
+    use std::io::{BufRead, Read};
+    let dir = tempfile::tempdir().unwrap();
+    let case = dir.path().join("settle.toml");
+    std::fs::write(&case, settle_case()).unwrap();
+    // A stopping speed no settling reaches: both end at the step limit, "NOT settled" (exit 1),
+    // with the bed written.
+    let args = |out: &Path| -> Vec<String> {
+        let out = out.to_str().unwrap();
+        ["settle", case.to_str().unwrap(), "--out", out, "--speed", "1e-30", "--min-steps", "400"]
+            .into_iter()
+            .chain(["--check-every", "100", "--max-steps", "20000"])
+            .map(String::from)
+            .collect()
+    };
+    let (whole, parts) = (dir.path().join("whole"), dir.path().join("parts"));
+    let o = slurry(&args(&whole).iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+
+    let mut child = std::process::Command::new(common::BIN)
+        .args(args(&parts))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut text = String::new();
+    // The first progress line (every tenth check) says the settling loop is running.
+    while !text.contains("settle: step") {
+        assert!(err.read_line(&mut text).unwrap() > 0, "the settling ended first: {text}");
+    }
+    // SAFETY: kill(2) on our own child, not yet waited for, so its pid is live.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGTERM) }, 0);
+    err.read_to_string(&mut text).unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(143), "{text}");
+    assert!(text.contains("stopped by SIGTERM at step") && text.contains("settling.h5"), "{text}");
+    let step: u64 = text.split(" at step ").nth(1).unwrap().split(':').next().unwrap().parse().unwrap();
+    assert!(step.is_multiple_of(100) && step < 20000, "stopped at step {step}");
+    let record = std::fs::read_to_string(parts.join("settling.json")).unwrap();
+    assert!(record.contains(&format!("\"step\":{step},")), "{record}");
+    assert_no_temp_files(&parts);
+
+    let o = slurry(&args(&parts).iter().map(String::as_str).collect::<Vec<_>>());
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains(&format!("at step {step}")), "{}", stderr(&o));
+    let pos = |d: &Path| {
+        hdf5::File::open(d.join("bed.h5")).unwrap().dataset("position").unwrap().read_raw::<f64>().unwrap()
+    };
+    let (a, b) = (pos(&whole), pos(&parts));
+    assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()), "resumed {b:?}, uninterrupted {a:?}");
+}
+
 /// `[run] snapshots`: the fields of each listed step are written beside the last step's, as
 /// `fields-STEP.h5`/`.xmf`, and are those of a run stopped at that step, bit for bit (also
 /// at a step that is neither an output nor a checkpoint step).
