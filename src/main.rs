@@ -522,10 +522,14 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            // A stop that a signal asked for is not an error: said as it is, without the
+            // command's "… failed" context.
             if let Some(stop) = e.downcast_ref::<slurry::interrupt::Interrupted>() {
-                ExitCode::from(stop.signal.exit_status())
-            } else if e.downcast_ref::<CaseError>().is_some()
+                eprintln!("{stop}");
+                return ExitCode::from(stop.signal.exit_status());
+            }
+            eprintln!("error: {e:#}");
+            if e.downcast_ref::<CaseError>().is_some()
                 || e.downcast_ref::<BadInput>().is_some()
                 || e.downcast_ref::<slurry::run::BadResume>().is_some()
                 || e.downcast_ref::<slurry::run::WouldOverwrite>().is_some()

@@ -20,6 +20,7 @@ use anyhow::Context;
 use serde::{Deserialize, Serialize};
 
 use super::ContactOverrides;
+use crate::interrupt::Interrupted;
 use crate::io::atomic_write_bytes;
 
 /// The file name, in the reproduction's output directory.
@@ -124,13 +125,19 @@ impl Manifest {
     }
 
     /// Ends the current session on an error: its end and wall time, status
-    /// `"stopped: <error>"` (the steps done stay as the last finished session left them; the
-    /// run's time series says how far this one got). Written to `dir` atomically.
+    /// `"stopped: <error>"`, or for a stop that a signal asked for the stop as it reads
+    /// (`"stopped by SIGTERM at step …"`, [`Interrupted`]); the steps done stay as the last
+    /// finished session left them (the run's time series says how far this one got). Written
+    /// to `dir` atomically.
     ///
     /// # Errors
     /// Writing the file failed.
-    pub fn stop(&mut self, dir: &Path, wall_time_s: f64, error: &str) -> anyhow::Result<()> {
-        self.end_session(dir, wall_time_s, format!("stopped: {error}"))
+    pub fn stop(&mut self, dir: &Path, wall_time_s: f64, error: &anyhow::Error) -> anyhow::Result<()> {
+        let status = match error.downcast_ref::<Interrupted>() {
+            Some(stop) => stop.to_string(),
+            None => format!("stopped: {error:#}"),
+        };
+        self.end_session(dir, wall_time_s, status)
     }
 
     /// The current session's end and wall time, the status, the total wall time; written.
@@ -267,9 +274,13 @@ mod tests {
         assert_eq!(read.sessions[1].resumed_from_step, Some(5000));
         // A session stopped by an error ends, says why, and counts its time.
         let mut m = Manifest::start(dir.path(), first.clone(), true, this_session(2)).unwrap();
-        m.stop(dir.path(), 3.0, "numerical trouble at step 95850: Mach number 0.301").unwrap();
+        let trouble = anyhow::anyhow!("numerical trouble at step 95850: Mach number 0.301");
+        m.stop(dir.path(), 3.0, &trouble.context("the run failed")).unwrap();
         let read = Manifest::read(dir.path()).unwrap();
-        assert_eq!(read.status, "stopped: numerical trouble at step 95850: Mach number 0.301");
+        assert_eq!(
+            read.status,
+            "stopped: the run failed: numerical trouble at step 95850: Mach number 0.301"
+        );
         assert!(read.sessions[2].ended.is_some());
         assert_eq!((read.wall_time_s, read.steps_done, read.restarts), (15.5, Some(101_000), 2));
         // A resume that extends the run under another contact scheme: the target and the
@@ -287,6 +298,17 @@ mod tests {
         let m = Manifest::start(dir.path(), longer, true, this_session(2)).unwrap();
         assert_eq!((m.revolutions, m.steps, m.contacts.substeps), (130.0, 131_000, Some(2)));
         assert_eq!((m.sessions.len(), m.wall_time_s, m.steps_done), (4, 15.5, Some(101_000)));
+        // A session stopped by a signal says so as the stop reads, without "stopped: ".
+        let mut m = m;
+        let stop = crate::interrupt::Interrupted {
+            signal: crate::interrupt::Signal::Terminate,
+            step: 96_400,
+            saved: "the state is in run/checkpoint.h5".into(),
+        };
+        m.stop(dir.path(), 2.0, &anyhow::Error::new(stop).context("reproduce pbt-ld2 failed")).unwrap();
+        let read = Manifest::read(dir.path()).unwrap();
+        assert_eq!(read.status, "stopped by SIGTERM at step 96400: the state is in run/checkpoint.h5");
+        assert_eq!((read.sessions.len(), read.wall_time_s), (4, 17.5));
         // A fresh start replaces the record.
         let m = Manifest::start(dir.path(), first, false, this_session(1)).unwrap();
         assert_eq!((m.restarts, m.sessions.len()), (0, 1));

@@ -892,7 +892,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
             Err(e) => {
                 // The manifest says the session ended and why; the run's files and its last
                 // checkpoint stay for a resume. The run's error is the one reported.
-                let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &format!("{e:#}"));
+                let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &e);
                 return Err(e);
             }
         };
