@@ -515,7 +515,12 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             let fluid = self.solver.fluid();
             let step = fluid.time();
             let output_due = step.is_multiple_of(output_every) || step == total;
-            let checkpoint_due = checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0;
+            // A stop request is answered at an even step (the state is complete only then; from
+            // an odd one the block below stops after one step) with this step's checkpoint,
+            // through the same health check and write as the periodic ones.
+            let stop = interrupt::requested().filter(|_| step.is_multiple_of(2) && step < total);
+            let checkpoint_due =
+                (checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0) || stop.is_some();
             let snapshot_due = self.case.run.snapshots.contains(&step);
             if output_due || checkpoint_due || snapshot_due {
                 let health = fluid.health(mach_limit);
@@ -547,14 +552,21 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             if step >= total {
                 break;
             }
-            if let Some(signal) = interrupt::requested() {
-                // The state is complete only after an even number of steps; from an odd one
-                // the block below stops after one step.
-                if step.is_multiple_of(2) {
-                    progress.abandon();
-                    let checkpoint_written = checkpoint_due && self.resumed_at != Some(step);
-                    return Err(self.stop(signal, step, last_good, checkpoint_written, mach_limit));
+            if let Some(signal) = stop {
+                progress.abandon();
+                self.timeseries
+                    .sync()
+                    .with_context(|| format!("cannot sync {}", self.timeseries_path.display()))?;
+                return Err(interrupt::Interrupted {
+                    signal,
+                    step,
+                    saved: format!(
+                        "the state is in {} (the time series to the last output step before it); \
+                         `--resume` continues the run from there",
+                        self.checkpoint_path.display()
+                    ),
                 }
+                .into());
             }
             // Advance to the next output or checkpoint point.
             let mut next = (step / output_every + 1) * output_every;
@@ -610,44 +622,6 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         }
         progress.finish_and_clear();
         Ok(stepped)
-    }
-
-    /// The stop that `signal` asked for at (even) step `step`: after a health check the state
-    /// is written to `checkpoint.h5` unless `checkpoint_written` (the step's own checkpoint),
-    /// the time series synced; the error to return, [`crate::interrupt::Interrupted`] (or the
-    /// health check's [`NumericalError`], the last good checkpoint left in place, or the
-    /// failed write's).
-    fn stop(
-        &mut self,
-        signal: interrupt::Signal,
-        step: u64,
-        last_good: u64,
-        checkpoint_written: bool,
-        mach_limit: f64,
-    ) -> anyhow::Error {
-        let health = self.solver.fluid().health(mach_limit);
-        if !health.is_ok() {
-            let timeseries = self.timeseries_path.clone();
-            return NumericalError { step, last_good, health, timeseries }.into();
-        }
-        if !checkpoint_written {
-            if let Err(e) = self.write_checkpoint() {
-                return e.context(format!("stopped by {signal} at step {step}, but the checkpoint failed"));
-            }
-        }
-        if let Err(e) = self.timeseries.sync() {
-            return anyhow::Error::new(e).context(format!("cannot sync {}", self.timeseries_path.display()));
-        }
-        interrupt::Interrupted {
-            signal,
-            step,
-            saved: format!(
-                "the state is in {} (the time series to the last output step before it); \
-                 `--resume` continues the run from there",
-                self.checkpoint_path.display()
-            ),
-        }
-        .into()
     }
 
     /// The time-series row of output step `step` and the particles' frame; returns the
