@@ -26,7 +26,9 @@
 #   212.8 and 213.5 ms per step for pbt-ld2 at s = 1/2 from its bed, against 121.4 ms for one
 #   2-thread run (1.14 times the steps per second in all); disk-ld1 at s = 1/4 from its steady
 #   checkpoint 57.6 and 63.7 against 35.3 ms (1.16 times). Each case takes about 1.75 times
-#   longer, so lanes pay only when there are at least as many cases as lanes. THREADS
+#   longer, so lanes pay only when there are at least as many cases as lanes. On the Intel Xeon
+#   VM of 2026-11-30 they do not pay: pbt-ld2 at s = 1/2 took 177 ms per step on 1 thread and
+#   92 ms on 2 (1.93 times), so a second lane could add at most 4 %. THREADS
 #   (environment) sets the threads per lane instead (e.g. THREADS=2 for one case on 2 cores).
 #
 # After a machine loss (the runs directory gone): the same command starts each case again from

@@ -65,6 +65,7 @@
 //! 4. With `--all`, the **cross-case summary** ([`summary`]): the paper's Figures 5–9 with
 //!    the three aspect ratios of each impeller on one plot, and one table of the six cases.
 
+mod announce;
 pub mod bench;
 pub mod manifest;
 pub mod report;
@@ -72,6 +73,8 @@ pub mod resolution;
 pub mod start;
 pub mod status;
 pub mod summary;
+
+pub use announce::{announce, step_ms_estimate};
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -951,49 +954,3 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
 
 #[cfg(test)]
 mod tests;
-
-/// What `slurry reproduce` is about to do for case `name` and about how long it takes on 2
-/// cores, printed before it starts.
-pub fn announce(name: &str, scale: f64, revolutions: f64, until_steady: Option<f64>, quick: bool) -> String {
-    let grid = [251.0, 251.0, 240.0].map(|n: f64| (n * scale).round());
-    // Measured cost of the coupled step on 2 cores: pbt-ld2 at s = 1/4 at steady state took
-    // 47 ms per step (2026-11-26; 238 140 nodes, the fluid about 3 ms of it), i.e. about
-    // 0.012 µs per node and 0.42 µs per marker of the 1.7e6 s² markers assumed here (the
-    // campaign's cases ran at 38–50 ms); the markers scale with s², the nodes with s³, the
-    // steps per revolution with s.
-    let minutes_for = |revs: f64| {
-        let steps = (revs + 0.5) * 4000.0 * scale;
-        let nodes = grid.iter().product::<f64>();
-        let markers = 1.7e6 * scale * scale;
-        steps * (nodes * 0.012e-6 + markers * 0.42e-6) / 60.0
-    };
-    let minutes = minutes_for(revolutions);
-    let what = if quick {
-        "about a minute on 2 cores (a smoke test: 0.75 revolution in all, far from steady)".to_string()
-    } else if let Some(cap) = until_steady {
-        format!(
-            "to steady state: roughly {minutes:.0} minutes of stepping on 2 cores (estimate), then on in legs of \
-             {STEADY_CHECK_REVOLUTIONS} revolutions until the report's steady test passes, at most to {cap} \
-             revolutions (about {:.0} minutes in all)",
-            minutes_for(cap)
-        )
-    } else {
-        format!(
-            "roughly {minutes:.0} minutes of stepping on 2 cores (estimate); a fixed length, not checked for steady \
-             state (the paper needs 100-200 revolutions: leave out --revolutions, or add --until-steady CAP)"
-        )
-    };
-    let coarse = if scale < 1.0 / 3.0 {
-        "; below the paper's resolution: the coarsest point of the resolution study, not a reproduction"
-    } else {
-        ""
-    };
-    format!(
-        "reproduce {name}: scale {scale:.3} ({} x {} x {} nodes, d = {:.2}{coarse}), {revolutions} revolutions after the \
-         ramp, {what}",
-        grid[0],
-        grid[1],
-        grid[2],
-        12.0 * scale
-    )
-}

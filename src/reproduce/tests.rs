@@ -345,7 +345,13 @@ fn the_default_run_goes_to_steady_state_and_says_so() {
     let steady = announce("pbt-ld2", DEFAULT_SCALE, 100.0, Some(200.0), false);
     assert!(steady.contains("to steady state") && steady.contains("at most to 200 revolutions"), "{steady}");
     assert!(steady.contains("d = 3.00") && steady.contains("not a reproduction"), "{steady}");
+    // 100.5 revolutions of 1000 steps at 27 ms, then to 200.5.
+    assert!(steady.contains("roughly 45 minutes") && steady.contains("about 90 minutes in all"), "{steady}");
     let fixed = announce("pbt-ld2", 0.5, 30.0, None, false);
+    // 30.5 revolutions of 2000 steps at 108 ms.
+    assert!(fixed.contains("roughly 110 minutes") && fixed.contains("108 ms per step"), "{fixed}");
+    let long = announce("pbt-ld1", 0.5, 200.0, Some(300.0), false);
+    assert!(long.contains("roughly 19.2 hours") && long.contains("about 28.8 hours in all"), "{long}");
     assert!(
         fixed.contains("not checked for steady state") && !fixed.contains("not a reproduction"),
         "{fixed}"
