@@ -13,7 +13,8 @@
 # - A lane stops at its first failure (a Mach-limit stop, a full disk), leaving the checkpoint
 #   for a resume, while the other lanes go on; the exit status is 1 if any lane failed. The log
 #   is RUNS/CASE-sSCALE/log.txt, the campaign's own lines go to stdout. Stopping the campaign
-#   (SIGINT or SIGTERM to this script) stops its lanes and the runs they started.
+#   (SIGINT or SIGTERM to this script) stops its runs at a checkpoint of the step each has
+#   reached (slurry's own answer to SIGTERM), so that a session's end loses no stepping.
 # - BIN (default: target/release/slurry of this checkout, built if missing) is the binary; give
 #   a copy outside the checkout for a campaign that spans sessions, so that the stepping bits
 #   cannot change under it.
@@ -30,6 +31,14 @@
 #   VM of 2026-11-30 they do not pay: pbt-ld2 at s = 1/2 took 177 ms per step on 1 thread and
 #   92 ms on 2 (1.93 times), so a second lane could add at most 4 %. THREADS
 #   (environment) sets the threads per lane instead (e.g. THREADS=2 for one case on 2 cores).
+#
+# - FROM (environment, a scale below SCALE, e.g. FROM=0.25): each case first runs at scale FROM to
+#   steady state (in RUNS/CASE-sFROM/, as above, skipped when done), then at SCALE **from that
+#   run's steady state** (`--start-from RUNS/CASE-sFROM/run`): the suspension approaches the finer
+#   scale's level from above, in far fewer revolutions than from the bed (pbt-ld2 at s = 1/2:
+#   steady after 100 revolutions from the s = 1/4 state, against an estimated 200 or more from
+#   the bed, which rises about half as fast as at s = 1/4). Archive the coarse run too
+#   (archive.sh writes its start pack), so that the start survives the runs directory.
 #
 # After a machine loss (the runs directory gone): the same command starts each case again from
 # its dry bed; the stepping is deterministic, so the runs repeat their lost predecessors bitwise.
@@ -49,6 +58,10 @@ if [ ${#names[@]} -eq 0 ]; then echo "campaign.sh: no case given" >&2; exit 2; f
 for v in REVOLUTIONS CAP THREADS; do
   if [ -n "${!v:-}" ] && ! [[ ${!v} =~ ^[1-9][0-9]*$ ]]; then echo "campaign.sh: $v=${!v}: a positive integer" >&2; exit 2; fi
 done
+FROM=${FROM:-}
+if [ -n "$FROM" ] && ! awk -v f="$FROM" -v s="$scale" 'BEGIN { exit !(f + 0 > 0 && f + 0 < s + 0) }'; then
+  echo "campaign.sh: FROM=$FROM: a scale above 0 and below SCALE = $scale" >&2; exit 2
+fi
 root=$(cd "$(dirname "$0")/../.." && pwd)
 BIN=${BIN:-$root/target/release/slurry}
 if [ ! -x "$BIN" ]; then (cd "$root" && cargo build --release --bin slurry) || exit 1; fi
@@ -63,20 +76,42 @@ if [ "$LANES" -gt 1 ]; then
 fi
 if [ -n "${THREADS:-}" ]; then threads=(--threads "$THREADS"); fi
 # One case: skipped if done, resumed if it has a checkpoint; non-zero on failure.
+# With FROM, the case at scale FROM first, then at SCALE from its state.
 run_case() {
-  local c=$1 d=$runs/$1-s$scale revs=100 cap=200
-  if [ -f "$d/DONE" ]; then echo "$(date -u +%FT%TZ) $c s$scale: done, skipped"; return 0; fi
+  if [ -n "$FROM" ]; then
+    run_at "$1" "$FROM" || return 1
+    run_at "$1" "$scale" --start-from "$runs/$1-s$FROM/run"
+  else
+    run_at "$1" "$scale"
+  fi
+}
+# One case at one scale (then extra options for slurry).
+run_at() {
+  local c=$1 s=$2 revs=100 cap=200; shift 2
+  local d=$runs/$c-s$s
+  if [ -f "$d/DONE" ]; then echo "$(date -u +%FT%TZ) $c s$s: done, skipped"; return 0; fi
   mkdir -p "$d"
   if [ "$c" = pbt-ld1 ]; then revs=200 cap=300; fi
   revs=${REVOLUTIONS:-$revs} cap=${CAP:-$cap}
-  if [ "$cap" -lt "$revs" ]; then echo "$(date -u +%FT%TZ) $c s$scale: CAP=$cap is below the $revs revolutions asked for" >&2; return 1; fi
-  local args=(reproduce "$c" --scale "$scale" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet "${extra[@]}")
+  if [ "$cap" -lt "$revs" ]; then echo "$(date -u +%FT%TZ) $c s$s: CAP=$cap is below the $revs revolutions asked for" >&2; return 1; fi
+  local args=(reproduce "$c" --scale "$s" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet "$@" "${extra[@]}")
   if [ -f "$d/run/run/checkpoint.h5" ]; then args+=(--resume); fi
-  echo "$(date -u +%FT%TZ) $c s$scale: $BIN ${args[*]}"
-  if "$BIN" "${args[@]}" >> "$d/log.txt" 2>&1; then
-    touch "$d/DONE"; echo "$(date -u +%FT%TZ) $c s$scale: finished"
+  echo "$(date -u +%FT%TZ) $c s$s: $BIN ${args[*]}"
+  # In the background, so that a SIGTERM to the campaign reaches this function's trap at once
+  # and is passed on: slurry then stops at a checkpoint of the step it has reached.
+  "$BIN" "${args[@]}" >> "$d/log.txt" 2>&1 &
+  local child=$! rc
+  trap 'kill -TERM $child 2>/dev/null' TERM
+  trap 'kill -INT $child 2>/dev/null' INT
+  while true; do
+    wait $child; rc=$?
+    kill -0 $child 2>/dev/null || break
+  done
+  trap - TERM INT
+  if [ $rc -eq 0 ]; then
+    touch "$d/DONE"; echo "$(date -u +%FT%TZ) $c s$s: finished"
   else
-    local rc=$?; echo "$(date -u +%FT%TZ) $c s$scale: failed (exit status $rc), see $d/log.txt"; return 1
+    echo "$(date -u +%FT%TZ) $c s$s: stopped (exit status $rc), see $d/log.txt"; return 1
   fi
 }
 # One lane: its cases one after another, stopping at the first failure.
@@ -87,11 +122,13 @@ for c in "${names[@]}"; do
   dup=0; for k in "${cases[@]}"; do [ "$k" = "$c" ] && dup=1; done
   [ $dup -eq 1 ] || cases+=("$c")
 done
-# Stopping the campaign stops its lanes and their runs (each lane's slurry is in its process group
-# only if job control is on, so the lanes' children are found by parent).
+# Stopping the campaign (SIGINT or SIGTERM) sends one SIGTERM to each lane, which passes it on
+# to its slurry (a second signal would end slurry at once, without its checkpoint), and waits
+# for the runs to stop at their checkpoints.
 stop() {
-  for p in "${pids[@]}"; do pkill -TERM -P "$p" 2>/dev/null; kill -TERM "$p" 2>/dev/null; done
-  exit 130
+  for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null; done
+  wait
+  exit 143
 }
 trap stop INT TERM
 for ((l = 0; l < LANES; l++)); do
