@@ -47,7 +47,9 @@ enum Command {
     /// Reproduce one of the paper's stirred cases (or all six): bed, run, statistics, figures, report.
     Reproduce(ReproduceArgs),
     /// The resolution study of one case: its reproductions at several scales side by side, with
-    /// the observed order and Richardson estimate from the three finest steady ones.
+    /// the observed order and Richardson estimate from the three finest steady ones (runs of one
+    /// scale from different starts: their mean is the scale's level, their spread the start's
+    /// effect).
     Resolution(ResolutionArgs),
     /// Where a reproduction stands, from its files (while it runs, or its archive): progress,
     /// speed and time left, ⟨z_p⟩/H by 10 revolutions, the steady test now, the power numbers.

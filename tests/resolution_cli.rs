@@ -57,4 +57,14 @@ fn bad_runs_are_bad_input() {
     ]);
     assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
     assert!(stderr(&o).contains("a resolution study is one case at several scales"), "{}", stderr(&o));
+
+    // The main job's run repeated the 2026-11-25 run from the same dry bed: two runs of one
+    // scale from one start are not two starts.
+    let o = slurry(&[
+        "resolution",
+        "reproduce/pbt-ld2/runs/2026-11-25-s0.25-exact-r200",
+        "reproduce/pbt-ld2/runs/2026-11-29-s0.25-main",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("are both at scale 0.25"), "{}", stderr(&o));
 }

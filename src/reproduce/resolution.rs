@@ -18,9 +18,17 @@
 //! whenever a scale finishes.
 //!
 //! Each row names how its run started ([`RunStart`]): from a settled bed, as the paper's runs, or
-//! from another run's particles (`--start-from`, the level approached from above). A steady
-//! point of the second kind counts, and the table says under it that its level is the bed's
-//! only if the steady state does not depend on the start.
+//! from another run's particles (`--start-from`, the level approached from above or from
+//! below). A steady point of the second kind counts, and the table says under it that its level
+//! is the bed's only if the steady state does not depend on the start.
+//!
+//! **Several starts at one scale.** Runs of one scale that started differently (from above and
+//! from below, or from the bed) are each a row. Where two or more of them are steady, the
+//! scale's level `f̄` is their mean and their spread `Δ_start = max − min` measures how much the
+//! steady state depends on the start; the changes between scales and the fit use `f̄`. Each
+//! level is then uncertain by about `±Δ_start/2`, so no order is claimed when, among the three
+//! finest scales, a spread exceeds half the smallest change between them
+//! ([`Convergence::StartDependent`]): the fitted order would be the start's, not the grid's.
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -134,6 +142,14 @@ pub enum Convergence {
     /// The three finest values are not monotone (or their scales are not strictly
     /// increasing), or no order in (0.05, 8) fits them.
     NotMonotone,
+    /// Among the three finest scales, the runs of one scale from different starts are further
+    /// apart than half the smallest change between the scales ([`START_SPREAD_FRACTION`]).
+    StartDependent {
+        /// The largest spread `max − min` between the starts of one scale.
+        spread: f64,
+        /// The smallest change of the level between neighbouring scales among the three.
+        change: f64,
+    },
     /// The observed order and the Richardson estimate of the limit.
     Order {
         /// `p`.
@@ -143,40 +159,109 @@ pub enum Convergence {
     },
 }
 
-/// The convergence of quantity `q` (an index into [`QUANTITIES`]) over the points where it
-/// counts ([`Point::counted`]), from the three finest. `points` as [`order_points`] returns
-/// them; out of order or at equal scales there is no order to claim
-/// ([`Convergence::NotMonotone`]).
-pub fn convergence(points: &[Point], q: usize) -> Convergence {
-    let steady: Vec<(f64, f64)> =
-        points.iter().filter_map(|p| p.counted(q).map(|v| (1.0 / p.scale, v))).collect();
-    if steady.len() < 3 {
-        return Convergence::TooFew(steady.len());
+/// The largest start spread, as a fraction of the smallest change between the three finest
+/// scales, for which an order is still claimed: each level is uncertain by about half its
+/// spread, so at this fraction by a quarter of the smallest change.
+pub const START_SPREAD_FRACTION: f64 = 0.5;
+
+/// One scale's level of one quantity: the mean of its counted runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    /// `s`.
+    pub scale: f64,
+    /// The mean of the counted runs' values, `f̄`.
+    pub value: f64,
+    /// `max − min` of the counted runs' values (0 for one run).
+    pub spread: f64,
+    /// How many runs count at this scale.
+    pub runs: usize,
+}
+
+/// Two scales of the study are one (the same grid, several runs): equal to a part in 10⁶.
+fn same_scale(a: f64, b: f64) -> bool {
+    (a / b - 1.0).abs() < 1e-6
+}
+
+/// The levels of quantity `q` by scale, over the points where it counts ([`Point::counted`]),
+/// in the order of `points` ([`order_points`] sorts them and puts the runs of one scale
+/// together).
+pub fn levels(points: &[Point], q: usize) -> Vec<Level> {
+    let mut out: Vec<(f64, Vec<f64>)> = Vec::new();
+    for p in points {
+        let Some(v) = p.counted(q) else { continue };
+        match out.last_mut() {
+            Some((scale, vs)) if same_scale(*scale, p.scale) => vs.push(v),
+            _ => out.push((p.scale, vec![v])),
+        }
     }
-    let t = &steady[steady.len() - 3..];
-    match richardson3([t[0].0, t[1].0, t[2].0], [t[0].1, t[1].1, t[2].1]) {
+    out.into_iter()
+        .map(|(scale, vs)| {
+            let (lo, hi) =
+                vs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
+            Level { scale, value: vs.iter().sum::<f64>() / vs.len() as f64, spread: hi - lo, runs: vs.len() }
+        })
+        .collect()
+}
+
+/// The convergence of quantity `q` (an index into [`QUANTITIES`]) over its [`levels`], from
+/// the three finest. `points` as [`order_points`] returns them; out of order or at equal
+/// scales there is no order to claim ([`Convergence::NotMonotone`]); nor where the start
+/// matters as much as the grid ([`Convergence::StartDependent`]).
+pub fn convergence(points: &[Point], q: usize) -> Convergence {
+    let levels = levels(points, q);
+    if levels.len() < 3 {
+        return Convergence::TooFew(levels.len());
+    }
+    let t = &levels[levels.len() - 3..];
+    let spread = t.iter().map(|l| l.spread).fold(0.0, f64::max);
+    let change = (t[1].value - t[0].value).abs().min((t[2].value - t[1].value).abs());
+    if spread > START_SPREAD_FRACTION * change {
+        return Convergence::StartDependent { spread, change };
+    }
+    match richardson3([0, 1, 2].map(|i| 1.0 / t[i].scale), [0, 1, 2].map(|i| t[i].value)) {
         Some((order, limit)) => Convergence::Order { order, limit },
         None => Convergence::NotMonotone,
     }
 }
 
 /// Sorts the points by scale and checks they are one study: neighbouring scales at least
-/// [`MIN_SCALE_RATIO`] apart.
+/// [`MIN_SCALE_RATIO`] apart, or the same scale for runs that started differently (recorded,
+/// and not equal: from above and from below, or from the bed).
 ///
 /// # Errors
-/// Two runs at the same (or nearly the same) scale, naming both.
+/// Two runs at nearly the same scale, or at one scale from the same (or an unrecorded) start,
+/// naming both.
 pub fn order_points(mut points: Vec<Point>) -> anyhow::Result<Vec<Point>> {
     points.sort_by(|a, b| a.scale.total_cmp(&b.scale));
-    for w in points.windows(2) {
-        if w[1].scale < MIN_SCALE_RATIO * w[0].scale {
-            anyhow::bail!(
-                "{} (scale {}) and {} (scale {}) are the same resolution (neighbouring scales must \
-                 differ by a factor of at least {MIN_SCALE_RATIO}): give one run per scale",
-                w[0].dir.display(),
-                w[0].scale,
-                w[1].dir.display(),
-                w[1].scale
-            );
+    for (i, b) in points.iter().enumerate() {
+        for a in &points[..i] {
+            if same_scale(a.scale, b.scale) {
+                if a.start.is_none() || b.start.is_none() || a.start == b.start {
+                    anyhow::bail!(
+                        "{} and {} are both at scale {} {}: several runs of one scale must differ in \
+                         how they started (from above, from below, from the bed), so that their spread \
+                         measures the start's effect",
+                        a.dir.display(),
+                        b.dir.display(),
+                        b.scale,
+                        if a.start.is_none() || b.start.is_none() {
+                            "and one does not record its start"
+                        } else {
+                            "from the same start"
+                        }
+                    );
+                }
+            } else if b.scale < MIN_SCALE_RATIO * a.scale {
+                anyhow::bail!(
+                    "{} (scale {}) and {} (scale {}) are the same resolution (neighbouring scales must \
+                     differ by a factor of at least {MIN_SCALE_RATIO}): give one run per scale, or runs \
+                     of exactly one scale from different starts",
+                    a.dir.display(),
+                    a.scale,
+                    b.dir.display(),
+                    b.scale
+                );
+            }
         }
     }
     Ok(points)
@@ -251,7 +336,12 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
         .iter()
         .filter(|p| p.steady && matches!(p.start, Some(RunStart::StartFrom(_))))
         .map(|p| fmt_scale(p.scale))
-        .collect();
+        .fold(Vec::new(), |mut v, x| {
+            if v.last() != Some(&x) {
+                v.push(x);
+            }
+            v
+        });
     if !from.is_empty() {
         let _ = writeln!(
             s,
@@ -262,6 +352,44 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
         );
     }
 
+    let several: Vec<(usize, Level)> = (0..QUANTITIES.len())
+        .flat_map(|q| levels(points, q).into_iter().filter(|l| l.runs > 1).map(move |l| (q, l)))
+        .collect();
+    if !several.is_empty() {
+        let _ = writeln!(s, "\n## Several starts at one scale\n");
+        let _ = writeln!(
+            s,
+            "The steady runs of one scale that started differently: the scale's level is their mean f̄, \
+             and their spread (max − min) is how much the steady state depends on the start. The changes \
+             and the fit below use f̄; no order is claimed where, among the three finest scales, a spread \
+             exceeds {START_SPREAD_FRACTION} of the smallest change between them.\n"
+        );
+        let _ = writeln!(s, "| s | quantity | runs | f̄ | spread |\n|---|---|---|---|---|");
+        for (q, l) in &several {
+            let runs = points
+                .iter()
+                .filter(|p| same_scale(p.scale, l.scale))
+                .filter_map(|p| {
+                    p.counted(*q).map(|v| {
+                        format!(
+                            "{v:.3} ({})",
+                            p.start.as_ref().map_or("not recorded".into(), RunStart::label)
+                        )
+                    })
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
+            let _ = writeln!(
+                s,
+                "| {} | {} | {runs} | {:.3} | {:.3} |",
+                fmt_scale(l.scale),
+                QUANTITIES[*q].1,
+                l.value,
+                l.spread
+            );
+        }
+    }
+
     let _ = writeln!(s, "\n## Convergence\n");
     let _ = writeln!(
         s,
@@ -269,17 +397,28 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     );
     let _ = writeln!(s, "|---|---|---|---|---|");
     for (q, (key, label)) in QUANTITIES.iter().enumerate() {
-        let counted: Vec<(f64, f64)> =
-            points.iter().filter_map(|p| p.counted(q).map(|v| (p.scale, v))).collect();
-        let changes = counted
+        let changes = levels(points, q)
             .windows(2)
-            .map(|w| format!("{:+.3} (s {} → {})", w[1].1 - w[0].1, fmt_scale(w[0].0), fmt_scale(w[1].0)))
+            .map(|w| {
+                format!(
+                    "{:+.3} (s {} → {})",
+                    w[1].value - w[0].value,
+                    fmt_scale(w[0].scale),
+                    fmt_scale(w[1].scale)
+                )
+            })
             .collect::<Vec<_>>();
         let (order, limit) = match convergence(points, q) {
             Convergence::TooFew(n) => {
                 (format!("– ({n} steady scale{}; needs 3)", if n == 1 { "" } else { "s" }), "–".into())
             }
             Convergence::NotMonotone => ("– (not monotone: no order claimed)".into(), "–".into()),
+            Convergence::StartDependent { spread, change } => (
+                format!(
+                    "– (a start spread of {spread:.3} against a smallest change of {change:.3}: no order claimed)"
+                ),
+                "–".into(),
+            ),
             Convergence::Order { order, limit } => (format!("{order:.2}"), format!("{limit:.3}")),
         };
         let _ = writeln!(
@@ -296,11 +435,13 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
     Ok(s)
 }
 
-/// `slurry resolution`: reads the runs, checks they are one case at distinct scales, and
-/// returns the table (written atomically to `out` too, when given).
+/// `slurry resolution`: reads the runs, checks they are one case at distinct scales (or at one
+/// scale from different starts), and returns the table (written atomically to `out` too, when
+/// given).
 ///
 /// # Errors
-/// A run's statistics cannot be read; the runs are of different cases or share a scale; the
+/// A run's statistics cannot be read; the runs are of different cases or share a scale and a
+/// start; the
 /// case is not one of the paper's; `out` cannot be written.
 pub fn write_resolution(dirs: &[PathBuf], out: Option<&Path>) -> anyhow::Result<String> {
     anyhow::ensure!(
@@ -451,13 +592,81 @@ mod tests {
         assert!(!table("pbt-ld2", &pts).unwrap().contains("Not every steady point"));
     }
 
+    /// A start from another run's state at s = 1/4 whose ⟨z_p⟩/H was `h`.
+    fn from_quarter(h: f64) -> RunStart {
+        RunStart::StartFrom(crate::reproduce::start::StartFrom {
+            dir: PathBuf::from(format!("start-{h}")),
+            scale: 0.25,
+            step: 140_750,
+            revolution: 140.75,
+            mean_height_over_h: h,
+            factor: [2.0; 3],
+            phase_error_deg: 0.0,
+            tip_shift: 0.0,
+        })
+    }
+
+    #[test]
+    fn runs_of_one_scale_from_different_starts_give_its_level_and_their_spread() {
+        // pbt-ld2: s = 1/4 and 1/3 from their beds, s = 1/2 from above (0.281) and from below.
+        let study = |below: f64| {
+            order_points(vec![
+                Point { start: Some(from_quarter(0.322)), ..point(0.5, true, [0.281, 1.823, 0.665, 2.489]) },
+                point(0.25, true, [0.332, 1.944, 1.2, 3.145]),
+                Point { start: Some(from_quarter(0.272)), ..point(0.5, true, [below, 1.825, 0.671, 2.497]) },
+                point(1.0 / 3.0, true, [0.288, 1.896, 0.799, 2.695]),
+            ])
+            .unwrap()
+        };
+        let pts = study(0.277);
+        let l = levels(&pts, 0);
+        assert_eq!(l.len(), 3);
+        assert_eq!((l[2].scale, l[2].runs), (0.5, 2));
+        assert!((l[2].value - 0.279).abs() < 1e-12 && (l[2].spread - 0.004).abs() < 1e-12, "{l:?}");
+        // Spread 0.004 against changes of 0.044 and 0.009: within half the smaller, an order.
+        assert!(matches!(convergence(&pts, 0), Convergence::Order { .. }), "{:?}", convergence(&pts, 0));
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(t.contains("## Several starts at one scale"), "{t}");
+        assert!(
+            t.contains(
+                "| 0.5 | ⟨z_p⟩/H | 0.281 (from s = 0.25 at ⟨z_p⟩/H 0.322), 0.277 (from s = 0.25 at ⟨z_p⟩/H 0.272) \
+                 | 0.279 | 0.004 |"
+            ),
+            "{t}"
+        );
+        assert!(t.contains("| ⟨z_p⟩/H | -0.044 (s 0.25 → 0.3333), -0.009 (s 0.3333 → 0.5) |"), "{t}");
+        assert!(t.contains("**Not every steady point started from a bed**: s = 0.5 started"), "{t}");
+        // From below at 0.271: a spread of 0.010 against a smallest change of 0.012, beyond half.
+        let pts = study(0.271);
+        match convergence(&pts, 0) {
+            Convergence::StartDependent { spread, change } => {
+                assert!((spread - 0.010).abs() < 1e-12 && (change - 0.012).abs() < 1e-12, "{spread} {change}")
+            }
+            other => panic!("{other:?}"),
+        }
+        let t = table("pbt-ld2", &pts).unwrap();
+        assert!(
+            t.contains("– (a start spread of 0.010 against a smallest change of 0.012: no order claimed)"),
+            "{t}"
+        );
+        // A start that is not steady is listed but gives no spread.
+        let mut pts = study(0.271);
+        pts[3].steady = false;
+        assert_eq!(levels(&pts, 0)[2].runs, 1);
+        assert!(!table("pbt-ld2", &pts).unwrap().contains("## Several starts"));
+    }
+
     #[test]
     fn bad_studies_are_refused_with_the_runs_named() {
         let e = order_points(vec![point(0.5, true, [0.3; 4]), point(0.5, true, [0.3; 4])]).unwrap_err();
-        assert!(
-            e.to_string().contains("s0.5 (scale 0.5) and s0.5 (scale 0.5) are the same resolution"),
-            "{e}"
-        );
+        assert!(e.to_string().contains("s0.5 and s0.5 are both at scale 0.5 from the same start"), "{e}");
+        let unrecorded = Point { start: None, ..point(0.5, true, [0.3; 4]) };
+        let e = order_points(vec![
+            Point { start: Some(from_quarter(0.3)), ..point(0.5, true, [0.3; 4]) },
+            unrecorded,
+        ])
+        .unwrap_err();
+        assert!(e.to_string().contains("one does not record its start"), "{e}");
         let e = order_points(vec![point(0.3333, true, [0.3; 4]), point(0.333, true, [0.3; 4])]).unwrap_err();
         assert!(e.to_string().contains("s0.333 (scale 0.333) and s0.3333 (scale 0.3333)"), "{e}");
         let dir = std::env::temp_dir().join(format!("slurry-resolution-{}", std::process::id()));
