@@ -34,10 +34,12 @@
 #
 # - FROM (environment, a scale below SCALE, e.g. FROM=0.25): each case first runs at scale FROM to
 #   steady state (in RUNS/CASE-sFROM/, as above, skipped when done), then at SCALE **from that
-#   run's steady state** (`--start-from RUNS/CASE-sFROM/run`): the suspension approaches the finer
-#   scale's level from above, in far fewer revolutions than from the bed (pbt-ld2 at s = 1/2:
-#   steady after 100 revolutions from the s = 1/4 state, against an estimated 200 or more from
-#   the bed, which rises about half as fast as at s = 1/4). Archive the coarse run too
+#   run's steady state** (`--start-from RUNS/CASE-sFROM/run`), in far fewer revolutions than
+#   from the bed (pbt-ld2 at s = 1/2: steady after 100 revolutions from the s = 1/4 state,
+#   against an estimated 200 or more from the bed, which rises about half as fast as at
+#   s = 1/4). Where the finer level is lower, as for pbt-ld2 (0.322 → 0.281), it is approached
+#   from above; the coarse verdict itself can come on a slow rise (disk-ld4 at s = 1/4: 0.327 at
+#   100 revolutions, 0.337 later), so the direction is not guaranteed. Archive the coarse run too
 #   (archive.sh writes its start pack), so that the start survives the runs directory.
 #
 # After a machine loss (the runs directory gone): the same command starts each case again from
@@ -97,17 +99,17 @@ run_at() {
   local args=(reproduce "$c" --scale "$s" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet "$@" "${extra[@]}")
   if [ -f "$d/run/run/checkpoint.h5" ]; then args+=(--resume); fi
   echo "$(date -u +%FT%TZ) $c s$s: $BIN ${args[*]}"
-  # In the background, so that a SIGTERM to the campaign reaches this function's trap at once
-  # and is passed on: slurry then stops at a checkpoint of the step it has reached.
+  # In the background, so that the SIGTERM that stop() sends this lane reaches its trap at once
+  # and is passed on: slurry then stops at a checkpoint of the step it has reached. (A lane,
+  # itself started in the background, ignores SIGINT; stop() answers that one.)
   "$BIN" "${args[@]}" >> "$d/log.txt" 2>&1 &
   local child=$! rc
   trap 'kill -TERM $child 2>/dev/null' TERM
-  trap 'kill -INT $child 2>/dev/null' INT
   while true; do
     wait $child; rc=$?
     kill -0 $child 2>/dev/null || break
   done
-  trap - TERM INT
+  trap - TERM
   if [ $rc -eq 0 ]; then
     touch "$d/DONE"; echo "$(date -u +%FT%TZ) $c s$s: finished"
   else

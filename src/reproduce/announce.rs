@@ -15,7 +15,7 @@ use super::STEADY_CHECK_REVOLUTIONS;
 /// pbt-ld2, the mean of its ratios at s = 1/4 and 1/2 in one benchmark window
 /// (`2026-11-27-coupled-3scales-l.json`, from the beds): the shorter the cylinders the more
 /// particles and contacts. Slower days of the shared VM took 1.5–2 times longer.
-pub fn step_ms_estimate(name: &str, scale: f64) -> f64 {
+fn step_ms_estimate(name: &str, scale: f64) -> f64 {
     let f_case = match name {
         "disk-ld1" => 1.5,
         "disk-ld2" => 1.0,

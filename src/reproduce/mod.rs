@@ -74,7 +74,7 @@ pub mod start;
 pub mod status;
 pub mod summary;
 
-pub use announce::{announce, step_ms_estimate};
+pub use announce::announce;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

@@ -186,19 +186,14 @@ fn same_scale(a: f64, b: f64) -> bool {
 /// in the order of `points` ([`order_points`] sorts them and puts the runs of one scale
 /// together).
 pub fn levels(points: &[Point], q: usize) -> Vec<Level> {
-    let mut out: Vec<(f64, Vec<f64>)> = Vec::new();
-    for p in points {
-        let Some(v) = p.counted(q) else { continue };
-        match out.last_mut() {
-            Some((scale, vs)) if same_scale(*scale, p.scale) => vs.push(v),
-            _ => out.push((p.scale, vec![v])),
-        }
-    }
-    out.into_iter()
-        .map(|(scale, vs)| {
+    let counted: Vec<(f64, f64)> = points.iter().filter_map(|p| p.counted(q).map(|v| (p.scale, v))).collect();
+    counted
+        .chunk_by(|a, b| same_scale(a.0, b.0))
+        .map(|runs| {
             let (lo, hi) =
-                vs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| (l.min(v), h.max(v)));
-            Level { scale, value: vs.iter().sum::<f64>() / vs.len() as f64, spread: hi - lo, runs: vs.len() }
+                runs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &(_, v)| (l.min(v), h.max(v)));
+            let value = runs.iter().map(|&(_, v)| v).sum::<f64>() / runs.len() as f64;
+            Level { scale: runs[0].0, value, spread: hi - lo, runs: runs.len() }
         })
         .collect()
 }
@@ -332,16 +327,12 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
 
     // A level reached from another run's state is the bed's only if the steady state does not
     // depend on the start: say so wherever the steady points did not all start from a bed.
-    let from: Vec<String> = points
+    let mut from: Vec<String> = points
         .iter()
         .filter(|p| p.steady && matches!(p.start, Some(RunStart::StartFrom(_))))
         .map(|p| fmt_scale(p.scale))
-        .fold(Vec::new(), |mut v, x| {
-            if v.last() != Some(&x) {
-                v.push(x);
-            }
-            v
-        });
+        .collect();
+    from.dedup();
     if !from.is_empty() {
         let _ = writeln!(
             s,
