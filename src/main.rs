@@ -177,7 +177,7 @@ struct ReproduceArgs {
     mach_limit: Option<f64>,
     /// Run to steady state: after --revolutions, go on in legs of 10 revolutions until the
     /// report's steady test passes (drift of ⟨z_p⟩/H over the last 20 revolutions at most
-    /// 0.005 beyond twice its standard error, and at most 0.015), to at most CAP revolutions
+    /// 0.005, and its standard error too), to at most CAP revolutions
     /// after the ramp (CAP ≥ --revolutions; --revolutions defaults to 100 here, 200 for
     /// pbt-ld1). `--revolutions 100 --until-steady 200` is the default run.
     #[arg(long, value_name = "CAP", allow_negative_numbers = true)]

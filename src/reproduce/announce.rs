@@ -8,7 +8,7 @@ use super::STEADY_CHECK_REVOLUTIONS;
 /// t(s) ≈ 27 ms · (4s)² · f_case
 ///
 /// Measured on the campaign's 2-core VM (Intel Xeon, 2026-11-29/30): pbt-ld2 took 26–27.5 ms per
-/// step at s = 1/4 (the main job, steady at 140 revolutions) and 92–101 ms at s = 1/2 (from the
+/// step at s = 1/4 (the main job, to its steady verdict) and 92–101 ms at s = 1/2 (from the
 /// steady s = 1/4 state), the ratio 3.7–3.9 of the particle work that grows with the markers
 /// (∝ s²) while the fluid's share (∝ s³) stays near a tenth; at s = 1, 467 ms from the bed
 /// (`benches/results`, 2026-11-27; the law gives 432). `f_case` is the case's cost relative to

@@ -236,8 +236,9 @@ impl ContactOverrides {
 /// PBT and ℓ/d = 1" (its Results section), so `R` is 100, 200 for `pbt-ld1`; after `R` the
 /// run goes on in legs of [`STEADY_CHECK_REVOLUTIONS`] until the report's steady test passes,
 /// at most to `CAP`. At the default scale on 2 cores that is 1–2.5 hours per case (pbt-ld2's
-/// archived run passed at 140 revolutions, at 45–60 ms per step), not the 30 minutes we aim
-/// for: the coupled step's particle side is the cost (`benches/results/README.md`).
+/// archived trajectory passes the current test at 150 revolutions; 26–60 ms per step), not
+/// the 30 minutes we aim for: the coupled step's particle side is the cost
+/// (`benches/results/README.md`).
 pub fn default_revolutions(case: &str) -> (f64, f64) {
     if case == "pbt-ld1" {
         (200.0, 300.0)

@@ -63,8 +63,8 @@ pub struct Point {
     pub steady: bool,
     /// The steady test's drift: the fitted change of ⟨z_p⟩/H over its last
     /// [`STEADY_REVOLUTIONS`] (`None`: not recorded). Beyond [`STEADY_DRIFT`] a steady run
-    /// passed on its noise allowance (or under the test before 2026-11-27) and may still be
-    /// moving, and the table says so.
+    /// passed under an earlier, looser test (before 2026-11-30: on its noise allowance; before
+    /// 2026-11-27: `|drift| ≤ 0.015`) and may still be moving, and the table says so.
     pub drift: Option<f64>,
     /// The power average's window is covered by the series (`None`: the report predates the
     /// record).
@@ -281,9 +281,9 @@ pub fn table(case: &str, points: &[Point]) -> anyhow::Result<String> {
          run is not steady, or the power window has a lost stretch), so it is listed but enters \
          no order or limit. h = 1/s is the grid spacing in units of the paper's (d = 12 s lattice \
          spacings). Drift: the fitted change of ⟨z_p⟩/H over the steady test's last {} \
-         revolutions; the test passes up to {} beyond twice the drift's standard error, so a run \
-         with a larger drift (†) may still be moving in that direction, and its value is a bound \
-         more than a limit.\n",
+         revolutions; the test passes up to {}, so a steady run with a larger drift (†) passed \
+         an earlier, looser test and may still be moving in that direction, and its value is a \
+         bound more than a limit.\n",
         STEADY_REVOLUTIONS, STEADY_DRIFT
     );
     let mut header = "| s | d | t N at the end | start | steady | drift | power window covered |".to_string();
@@ -509,7 +509,8 @@ mod tests {
     fn the_table_marks_transients_and_says_what_it_cannot_claim() {
         // s = 1/3 with the drift of the run that passed the old test (|drift| ≤ 0.015) at 100
         // revolutions still rising (0.0119), as its report records: steady, counted, but
-        // marked; so is s = 1/4, whose 0.0068 passes the new test only on its noise allowance.
+        // marked; so is s = 1/4, whose 0.0068 passed the test of 2026-11-27 only on its noise
+        // allowance.
         let third = Point { drift: Some(0.0119), ..point(1.0 / 3.0, true, [0.246, 1.856, 0.444, 2.3]) };
         let pts = order_points(vec![
             point(0.5, false, [0.31, 2.0, 1.0, 3.0]),
