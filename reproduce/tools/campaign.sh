@@ -34,7 +34,8 @@
 #
 # - FROM (environment, a scale below SCALE, e.g. FROM=0.25): each case first runs at scale FROM to
 #   steady state (in RUNS/CASE-sFROM/, as above, skipped when done), then at SCALE **from that
-#   run's steady state** (`--start-from RUNS/CASE-sFROM/run`), in far fewer revolutions than
+#   run's state at its end** (`--start-from RUNS/CASE-sFROM/run`; steady, or at the cap of
+#   200 revolutions where the test never passed, as disk-ld1 at s = 1/4 would), in far fewer revolutions than
 #   from the bed (pbt-ld2 at s = 1/2: steady after 100 revolutions from the s = 1/4 state,
 #   against an estimated 200 or more from the bed, which rises about half as fast as at
 #   s = 1/4). Where the finer level is lower, as for pbt-ld2 (0.322 → 0.281), it is approached
