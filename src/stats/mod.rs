@@ -390,8 +390,9 @@ pub struct SteadyTest {
 ///
 /// No allowance is made for the fluctuations beyond `σ_drift ≤ tolerance`. From 2026-11-27 to
 /// 2026-11-30 the test passed `|drift| − 2 σ_drift ≤ tolerance` (at most 3 × tolerance): applied
-/// to the eight archived runs that went on past their verdict, that allowance passed only
-/// rises, each further below the level the run reached later than the plain test's verdict
+/// to the seven archived runs that went on to 200 revolutions past their verdicts, that
+/// allowance passed only rises, each further below the level the run reached later than the
+/// plain test's verdict
 /// (disk-ld2 at s = 1/4 by 0.030 at t N = 111 against 0.0004 at 171; `reproduce/README.md`,
 /// "The steady test"). A stationary but noisy series may now fail a window and pass a later
 /// one. (Before 2026-11-27, `|drift| ≤ 0.015` passed disk-ld1 at s = 1/4 still rising by 5e-4
@@ -543,8 +544,8 @@ impl StatsOptions {
     /// The paper's windows (profiles 10, steady test 20, power 30 revolutions), the mobile
     /// threshold `0.2 H`, bins of `d/4` for particles of diameter `diameter`, 18 angle bins
     /// (5°) and a drift tolerance of 0.005 in `⟨z_p⟩/H` over 20 revolutions ([`steady_state`];
-    /// our choice, the report's: a sixth of the ±0.03 band of
-    /// the paper's values, whose steady levels differ by 0.05 between aspect ratios).
+    /// our choice, the report's: a sixth of the ±0.03 band of the paper's values, whose steady
+    /// levels differ by 0.05 between aspect ratios).
     pub fn paper(diameter: f64) -> Self {
         Self {
             profile_revs: 10.0,

@@ -219,7 +219,7 @@ fn a_slow_rise_above_its_noise_is_not_steady() {
 
 /// The creep that the test of 2026-11-27 to 2026-11-30 let pass on its noise allowance: a rise
 /// of 3.6e-4 per revolution (0.0072 over the window) under fluctuations that give the drift a
-/// standard error of about 0.0015 (disk-ld4 at s = 1/4 with the main job's defaults, verdict at
+/// standard error of about 0.001 (disk-ld4 at s = 1/4 with the main job's defaults, verdict at
 /// t N = 101: +0.0072 ± 0.0014; the run went on to 0.337, 0.010 above that verdict's 0.327). Then
 /// `|drift| − 2σ ≤ 0.005` passed it; now it is not steady, and the same fluctuations without
 /// the rise are.
