@@ -12,7 +12,10 @@
 //! With `from` (`slurry bench --coupled --from CHECKPOINT`) the coupled solver starts instead
 //! from a run's checkpoint of the same case and scale (a reproduction's `run/checkpoint.h5`,
 //! written under any contact scheme): the cost of the suspension at steady state, where the
-//! particles are spread over the tank and move fast, rather than of the bed being lifted.
+//! particles are spread over the tank and move fast, rather than of the bed being lifted. The
+//! particles' definitions then come from the case the checkpoint was written with, not from
+//! the bed cache, so a run started from a wet bed or with `--start-from` is measured too, and
+//! no bed is made.
 //!
 //! The per-output work of a run (the health check and the walls' momentum exchange behind the
 //! torque balance) is timed once and divided by the case's output interval: `output_ms`.
@@ -121,9 +124,9 @@ pub struct ContactOptions {
     pub lubrication_substeps: Option<usize>,
 }
 
-/// A benchmarked case made ready to couple: the stirred case at its scale on its cached bed,
-/// its output interval, and the checkpoint to start from, if any (read before the bed is
-/// made, which may take long).
+/// A benchmarked case made ready to couple: the stirred case at its scale on its cached bed
+/// (or on the particles of the checkpoint's case), its output interval, and the checkpoint to
+/// start from, if any (read before a bed is made, which may take long).
 struct Setup {
     case: crate::case::Case,
     output_every: u64,
@@ -132,8 +135,9 @@ struct Setup {
 }
 
 impl Setup {
-    /// Case `name` at `scale` on its settled bed, with the checkpoint at `from` read and its
-    /// grid checked.
+    /// Case `name` at `scale` on its settled bed or, with `from`, on the particles of the case
+    /// the checkpoint at `from` was written with (its grid checked here, the rest of the case
+    /// in [`Setup::couple`]).
     fn new(name: &str, scale: f64, cache: &Path, from: Option<&Path>, quiet: bool) -> anyhow::Result<Self> {
         let pc = super::paper_case(name)?;
         let scaled = super::scale_case(&pc.case()?, scale)?;
@@ -141,9 +145,22 @@ impl Setup {
         let checkpoint = from
             .map(|p| read_from(p, [g.nx, g.ny, g.nz]).map(|(case, state)| (p.to_path_buf(), case, state)))
             .transpose()?;
-        let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
         let sched = super::schedule(&scaled, 1.0)?;
-        let case = super::stirred_case(&scaled, &bed, &sched);
+        let case = match &checkpoint {
+            Some((path, written_for, _)) => {
+                let written: crate::case::Case = toml::from_str(written_for).map_err(|e| {
+                    anyhow::anyhow!(
+                        "--from {}: the case it was written with cannot be read: {e}",
+                        path.display()
+                    )
+                })?;
+                super::with_particles(&scaled, &written.particles, &sched)
+            }
+            None => {
+                let (bed, _) = super::bed(name, &scaled, super::BedMethod::default(), cache, quiet, None)?;
+                super::stirred_case(&scaled, &bed, &sched)
+            }
+        };
         Ok(Self { case, output_every: sched.output_every, checkpoint })
     }
 
@@ -174,10 +191,10 @@ impl Setup {
         let mut c =
             Coupled::new(self.fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
         if let Some((path, written_for, state)) = &self.checkpoint {
-            // Any contact scheme, any length of run; the same case, scale and bed.
+            // Any contact scheme, any length of run, any start; the same case and scale.
             if !case.same_except_contact_scheme(written_for) {
                 anyhow::bail!(
-                    "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale, from the same bed)",
+                    "--from {}: the checkpoint was written for another case (it must be a reproduction of the same case at the same scale)",
                     path.display()
                 );
             }

@@ -698,9 +698,16 @@ pub fn bed(
 /// The stirred case: the scaled case `c` with the bed's particles in place of its random
 /// placement, and the run settings of `sched`.
 pub fn stirred_case(c: &Case, bed: &BedRecord, sched: &Schedule) -> Case {
+    with_particles(c, &bed.bed.particles, sched)
+}
+
+/// `c` with `particles` in place of its random placement, and the run settings of `sched`:
+/// the stirred case on a bed ([`stirred_case`]), or on the particles a run's checkpoint was
+/// written with (`slurry bench --coupled --from`).
+pub(crate) fn with_particles(c: &Case, particles: &[crate::case::ParticleSpec], sched: &Schedule) -> Case {
     let mut s = c.clone();
     s.random_particles.clear();
-    s.particles.extend(bed.bed.particles.iter().cloned());
+    s.particles.extend(particles.iter().cloned());
     scheduled(&s, sched)
 }
 
