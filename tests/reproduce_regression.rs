@@ -196,8 +196,9 @@ fn pbt_ld2_reduced_run() {
         "a cap below the revolutions is refused"
     );
 
-    // `slurry bench --coupled --from`: the coupled step timed from this run's checkpoint (the
-    // bed from the same cache) starts at the checkpoint's step, not at the bed's step 0.
+    // `slurry bench --coupled --from`: the coupled step timed from this run's checkpoint (its
+    // particles from the case the checkpoint was written with) starts at the checkpoint's step,
+    // not at the bed's step 0.
     let cp = opts.out.join("run/checkpoint.h5");
     let b = slurry::reproduce::bench::bench_case(
         "pbt-ld2",
