@@ -29,6 +29,11 @@ impl<T: Real> ForceSink for FieldSink<'_, T> {
     }
 
     #[inline(always)]
+    unsafe fn add_row(&self, index: usize, w: &[f64], f: [f64; 3]) {
+        self.writer.add_row(index, w, f)
+    }
+
+    #[inline(always)]
     fn prefetch(&self, index: usize) {
         self.writer.prefetch(index)
     }

@@ -493,3 +493,49 @@ fn interior_sums_equal_a_fresh_walk_bitwise() {
     }
     assert!((c.bodies()[0].position - start).norm() > 0.3, "the cylinder should have moved");
 }
+
+/// The spreading's row update of the fluid's force field (`ForceFieldWriter::add_row`, rows of
+/// 3 and of other lengths) leaves bitwise the field that node-by-node updates leave, in `f32`
+/// storage, over repeated overlapping updates.
+#[test]
+fn force_field_rows_update_as_nodes_do() {
+    let new = || {
+        let mut f =
+            Fluid::<f32>::new(Grid::new(8, 6, 5), FluidParams::bgk(0.1), Boundaries::closed_box()).unwrap();
+        f.enable_force_field();
+        f
+    };
+    let (mut by_rows, mut by_nodes) = (new(), new());
+    let layout = by_rows.padded_layout();
+    let mut rng = crate::util::SplitMix64(3);
+    let updates: Vec<(usize, Vec<f64>, [f64; 3])> = (0..400)
+        .map(|k| {
+            let len = [3, 3, 2, 4, 1][k % 5];
+            let (x, y, z) = ((k * 7) % (8 - len + 1), (k * 5) % 6, (k * 3) % 5);
+            let w = (0..len).map(|_| rng.uniform(0.0, 0.4)).collect();
+            let f = [rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3)];
+            (layout.index(x, y, z), w, f)
+        })
+        .collect();
+    {
+        let (rows, nodes) = (by_rows.force_field_writer(), by_nodes.force_field_writer());
+        for (p, w, f) in &updates {
+            // SAFETY: interior nodes of the grid (x + len ≤ 8), one thread.
+            unsafe { rows.add_row(*p, w, *f) };
+            for (k, &wk) in w.iter().enumerate() {
+                unsafe { nodes.add(p + k, wk, *f) };
+            }
+        }
+    }
+    let mut touched = 0;
+    for z in 0..5 {
+        for y in 0..6 {
+            for x in 0..8 {
+                let (a, b) = (by_rows.force_at(x, y, z), by_nodes.force_at(x, y, z));
+                assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "node ({x}, {y}, {z})");
+                touched += usize::from(a != [0.0; 3]);
+            }
+        }
+    }
+    assert!(touched > 80, "{touched} nodes updated");
+}

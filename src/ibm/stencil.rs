@@ -323,6 +323,36 @@ impl Stencils {
         }
     }
 
+    /// As [`Stencils::for_each_node_in`], an x-row at a time when the marker's x-nodes are
+    /// consecutive (every stencil away from a periodic seam): `f(first, weights)` with the
+    /// row's first node index and the weights of its `len[0]` nodes, `first + k` the `k`-th;
+    /// `false` (and nothing called) when they are not. The same nodes in the same order, with
+    /// bitwise the same weights, so a caller that updates node by node gets the same bits.
+    #[inline(always)]
+    pub fn for_each_xrow_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize, &[f64])) -> bool {
+        let nd = &self.node[m];
+        let wt = &self.weight[m];
+        let ln = self.len[m];
+        let lx = ln[0] as usize;
+        if (1..lx).any(|a| nd[0][a] != nd[0][0] + a as u32) {
+            return false;
+        }
+        let mut w = [0.0; MAX_WIDTH];
+        for c in 0..ln[2] as usize {
+            let z = nd[2][c] as usize;
+            let wz = wt[2][c];
+            for b in 0..ln[1] as usize {
+                let row = layout.base + layout.sy * nd[1][b] as usize + layout.sz * z;
+                let wzy = wz * wt[1][b];
+                for a in 0..lx {
+                    w[a] = wzy * wt[0][a];
+                }
+                f(row + nd[0][0] as usize, &w[..lx]);
+            }
+        }
+        true
+    }
+
     /// `f(index)` for the first node of each x-row of marker `m`'s stencil (indices in
     /// `layout`), in the order of [`Stencils::for_each_node_in`]: where a marker's reads and
     /// updates begin, for prefetching them.

@@ -320,3 +320,39 @@ fn rows_start_where_the_stencil_rows_start() {
         }
     }
 }
+
+/// `for_each_xrow_in` (the spreading's rows) gives the nodes of `for_each_node_in` in the same
+/// order with bitwise the same weights whenever a marker's x-nodes are consecutive, and
+/// declines (calling nothing) at a periodic seam, where they wrap; for every kernel, on
+/// periodic and walled axes (clipped stencils), in a padded layout.
+#[test]
+fn x_rows_are_the_stencil_nodes_in_order() {
+    let mut rng = Rng(17);
+    let grid = Grid::new(9, 7, 16);
+    let layout = crate::lattice::NodeLayout { base: 5, sy: 11, sz: 11 * 9 };
+    let (mut by_rows, mut declined) = (0, 0);
+    for kernel in [DeltaKernel::Linear, DeltaKernel::Roma3, DeltaKernel::Peskin4] {
+        for periodic in [[true; 3], [false; 3]] {
+            let pos = markers(&mut rng, grid, periodic, 300);
+            let st = build(kernel, grid, periodic, &pos);
+            for m in 0..pos.len() {
+                let mut nodes = Vec::new();
+                st.for_each_node_in(layout, m, |n, w| nodes.push((n, w.to_bits())));
+                let mut rows = Vec::new();
+                let done = st.for_each_xrow_in(layout, m, |n, w| {
+                    rows.extend(w.iter().enumerate().map(|(k, wk)| (n + k, wk.to_bits())));
+                });
+                if done {
+                    by_rows += 1;
+                    assert_eq!(rows, nodes, "{kernel:?}, periodic {periodic:?}, marker {m}");
+                } else {
+                    declined += 1;
+                    assert!(rows.is_empty() && periodic[0], "{kernel:?}, marker {m}: declined off a seam");
+                    let xs: Vec<usize> = nodes.iter().map(|&(n, _)| (n - layout.base) % layout.sy).collect();
+                    assert!(xs.windows(2).any(|p| p[1] != p[0] && p[1] != p[0] + 1), "marker {m}: {xs:?}");
+                }
+            }
+        }
+    }
+    assert!(by_rows > 1000 && declined > 10, "{by_rows} by rows, {declined} declined");
+}

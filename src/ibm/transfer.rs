@@ -166,6 +166,20 @@ pub trait ForceSink: Sync {
     /// accesses that node during the call.
     unsafe fn add(&self, index: usize, w: f64, f: [f64; 3]);
 
+    /// `sink[index + k] += w[k] · f` for each `k`: an x-row of consecutive nodes
+    /// ([`Stencils::for_each_xrow_in`]). Each node gets the update [`ForceSink::add`] gives it,
+    /// so the result is the same whichever is called; a sink may override this to update the
+    /// row's values together.
+    ///
+    /// # Safety
+    /// As [`ForceSink::add`], for every node of the row.
+    #[inline(always)]
+    unsafe fn add_row(&self, index: usize, w: &[f64], f: [f64; 3]) {
+        for (k, &wk) in w.iter().enumerate() {
+            self.add(index + k, wk, f);
+        }
+    }
+
     /// A hint that the node at `index` and the next ones of its x-row will soon be updated;
     /// nothing by default.
     #[inline(always)]
@@ -233,12 +247,14 @@ pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stenci
                     stencils.for_each_row_in(layout, near as usize, |n| sink.prefetch(n));
                 }
                 let f = forces[m as usize];
-                stencils.for_each_node_in(layout, m as usize, |n, w| {
-                    // SAFETY: a stencil node of the grid, in the sink's layout; by the phase
-                    // argument of the module docs no other task of this phase writes a node
-                    // in slabs `s` or `s + 1`, which contain this one.
-                    unsafe { sink.add(n, w, f) }
-                });
+                // SAFETY (both): stencil nodes of the grid, in the sink's layout; by the phase
+                // argument of the module docs no other task of this phase writes a node in
+                // slabs `s` or `s + 1`, which contain them.
+                let by_rows =
+                    stencils.for_each_xrow_in(layout, m as usize, |n, w| unsafe { sink.add_row(n, w, f) });
+                if !by_rows {
+                    stencils.for_each_node_in(layout, m as usize, |n, w| unsafe { sink.add(n, w, f) });
+                }
             }
         });
     }

@@ -677,6 +677,31 @@ impl<T: Real> ForceFieldWriter<'_, T> {
         }
     }
 
+    /// `field[p + k] += w[k] · f` for each `k`, component after component: the operations of
+    /// [`ForceFieldWriter::add`] on each node (the order among distinct values does not
+    /// matter), so the same bits, with the row's values of one component updated together.
+    ///
+    /// # Safety
+    /// `p + k` is a padded index of an interior node for each `k < w.len()`, and no other
+    /// thread accesses those nodes during the call.
+    #[inline(always)]
+    pub unsafe fn add_row(&self, p: usize, w: &[f64], f: [f64; 3]) {
+        debug_assert!(p + w.len() <= self.stride && self.field.len() == 3 * self.stride);
+        if let &[w0, w1, w2] = w {
+            for (a, fa) in f.iter().enumerate() {
+                let i = a * self.stride + p;
+                let v = [self.field.read(i), self.field.read(i + 1), self.field.read(i + 2)];
+                self.field.write(i, T::from_f64(v[0].to_f64() + w0 * *fa));
+                self.field.write(i + 1, T::from_f64(v[1].to_f64() + w1 * *fa));
+                self.field.write(i + 2, T::from_f64(v[2].to_f64() + w2 * *fa));
+            }
+        } else {
+            for (k, &wk) in w.iter().enumerate() {
+                self.add(p + k, wk, f);
+            }
+        }
+    }
+
     /// A hint that node `p`'s three components will soon be updated
     /// ([`crate::util::prefetch`]): changes nothing but when they are fetched.
     #[inline(always)]
