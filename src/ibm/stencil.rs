@@ -307,18 +307,25 @@ impl Stencils {
     /// arrays): the same nodes, in the same order, with bitwise the same weights.
     #[inline(always)]
     pub fn for_each_node_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize, f64)) {
-        let nd = &self.node[m];
-        let wt = &self.weight[m];
-        let ln = self.len[m];
+        let (nd, wt, lx) = (&self.node[m], &self.weight[m], self.len[m][0] as usize);
+        self.for_each_yz_in(layout, m, |row, wzy| {
+            for a in 0..lx {
+                f(row + nd[0][a] as usize, wzy * wt[0][a]);
+            }
+        });
+    }
+
+    /// `f(row, w_zy)` for each (z, y) row of marker `m`'s stencil, z outer: the index of the
+    /// row's node at x = 0 in `layout` and the product `φ_z · φ_y` of its weights, the first
+    /// factor of every 3-D weight `δ = (φ_z · φ_y) · φ_x` in the row.
+    #[inline(always)]
+    fn for_each_yz_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize, f64)) {
+        let (nd, wt, ln) = (&self.node[m], &self.weight[m], self.len[m]);
         for c in 0..ln[2] as usize {
             let z = nd[2][c] as usize;
             let wz = wt[2][c];
             for b in 0..ln[1] as usize {
-                let row = layout.base + layout.sy * nd[1][b] as usize + layout.sz * z;
-                let wzy = wz * wt[1][b];
-                for a in 0..ln[0] as usize {
-                    f(row + nd[0][a] as usize, wzy * wt[0][a]);
-                }
+                f(layout.base + layout.sy * nd[1][b] as usize + layout.sz * z, wz * wt[1][b]);
             }
         }
     }
@@ -330,26 +337,17 @@ impl Stencils {
     /// bitwise the same weights, so a caller that updates node by node gets the same bits.
     #[inline(always)]
     pub fn for_each_xrow_in(&self, layout: NodeLayout, m: usize, mut f: impl FnMut(usize, &[f64])) -> bool {
-        let nd = &self.node[m];
-        let wt = &self.weight[m];
-        let ln = self.len[m];
-        let lx = ln[0] as usize;
+        let (nd, wt, lx) = (&self.node[m], &self.weight[m], self.len[m][0] as usize);
         if (1..lx).any(|a| nd[0][a] != nd[0][0] + a as u32) {
             return false;
         }
         let mut w = [0.0; MAX_WIDTH];
-        for c in 0..ln[2] as usize {
-            let z = nd[2][c] as usize;
-            let wz = wt[2][c];
-            for b in 0..ln[1] as usize {
-                let row = layout.base + layout.sy * nd[1][b] as usize + layout.sz * z;
-                let wzy = wz * wt[1][b];
-                for a in 0..lx {
-                    w[a] = wzy * wt[0][a];
-                }
-                f(row + nd[0][0] as usize, &w[..lx]);
+        self.for_each_yz_in(layout, m, |row, wzy| {
+            for a in 0..lx {
+                w[a] = wzy * wt[0][a];
             }
-        }
+            f(row + nd[0][0] as usize, &w[..lx]);
+        });
         true
     }
 
