@@ -677,9 +677,10 @@ impl<T: Real> ForceFieldWriter<'_, T> {
         }
     }
 
-    /// `field[p + k] += w[k] · f` for each `k`, component after component: the operations of
-    /// [`ForceFieldWriter::add`] on each node (the order among distinct values does not
-    /// matter), so the same bits, with the row's values of one component updated together.
+    /// `field[p + k] += w[k] · f` for each `k`: the operations of [`ForceFieldWriter::add`] on
+    /// each node (the order among distinct values does not matter), so the same bits. A row of
+    /// three (the default kernel's width) is updated component after component, its three
+    /// values together; other lengths node by node.
     ///
     /// # Safety
     /// `p + k` is a padded index of an interior node for each `k < w.len()`, and no other
