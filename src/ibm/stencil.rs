@@ -225,6 +225,7 @@ impl Stencils {
         };
         // Parallel over chunks of markers, each chunk serial; the lowest failing marker of the
         // whole set (chunks stop at their first) is the error, whatever the thread count.
+        let roma3_avx2 = kernel == DeltaKernel::Roma3 && has_avx2();
         let first_bad = self
             .node
             .par_chunks_mut(BUILD_CHUNK)
@@ -234,18 +235,14 @@ impl Stencils {
             .enumerate()
             .filter_map(|(c, (((nd, wt), ln), sl))| {
                 let base = c * BUILD_CHUNK;
-                for (k, x) in positions[base..base + nd.len()].iter().enumerate() {
-                    if let Some(e) = check(base + k, *x) {
-                        return Some(e);
-                    }
-                    for a in 0..3 {
-                        ln[k][a] =
-                            axis_stencil(kernel, x[a], dims[a], periodic[a], &mut nd[k][a], &mut wt[k][a])
-                                as u8;
-                    }
-                    sl[k] = (nd[k][2][0] as usize / t).min(s - 1) as u32;
+                let chunk = Chunk { positions: &positions[base..base + nd.len()], nd, wt, ln, sl };
+                let check = |k: usize, x: [f64; 3]| check(base + k, x);
+                if roma3_avx2 {
+                    #[cfg(target_arch = "x86_64")]
+                    // SAFETY: the processor has AVX2 (`has_avx2`).
+                    return unsafe { chunk.build_roma3_avx2(dims, periodic, t, s, check) };
                 }
-                None
+                chunk.build(|x, nd, wt| marker_stencil(kernel, x, dims, periodic, nd, wt), t, s, check)
             })
             .min_by_key(|e| match e {
                 StencilError::NonFinite { marker, .. } | StencilError::OutsideBox { marker, .. } => *marker,
@@ -397,6 +394,176 @@ impl Stencils {
     }
 }
 
+/// Whether the processor has AVX2 (the vectorised weights of [`Chunk::build_roma3_avx2`]).
+#[inline]
+fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// One task's markers of [`Stencils::build`] and the parts of its buffers that they own.
+struct Chunk<'a> {
+    positions: &'a [[f64; 3]],
+    nd: &'a mut [Nodes],
+    wt: &'a mut [Weights],
+    ln: &'a mut [[u8; 3]],
+    sl: &'a mut [u32],
+}
+
+impl Chunk<'_> {
+    /// Each marker's stencil by `marker(x, nodes, weights) -> lengths` and its slab (of
+    /// `t` planes, `s` slabs); stops at the first marker that `check(k, x)` rejects and returns
+    /// its error.
+    #[inline(always)]
+    fn build(
+        self,
+        mut marker: impl FnMut(&[f64; 3], &mut Nodes, &mut Weights) -> [u8; 3],
+        t: usize,
+        s: usize,
+        check: impl Fn(usize, [f64; 3]) -> Option<StencilError>,
+    ) -> Option<StencilError> {
+        for (k, x) in self.positions.iter().enumerate() {
+            if let Some(e) = check(k, *x) {
+                return Some(e);
+            }
+            self.ln[k] = marker(x, &mut self.nd[k], &mut self.wt[k]);
+            self.sl[k] = (self.nd[k][2][0] as usize / t).min(s - 1) as u32;
+        }
+        None
+    }
+
+    /// [`Chunk::build`] for [`DeltaKernel::Roma3`] with the nine weights of a marker in three
+    /// AVX2 vectors: bitwise those of [`marker_stencil`] (module docs of
+    /// [`roma3_weights_avx2`]); markers whose stencil crosses a wall go through
+    /// [`marker_stencil`] itself.
+    ///
+    /// # Safety
+    /// The processor must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn build_roma3_avx2(
+        self,
+        dims: [usize; 3],
+        periodic: [bool; 3],
+        t: usize,
+        s: usize,
+        check: impl Fn(usize, [f64; 3]) -> Option<StencilError>,
+    ) -> Option<StencilError> {
+        let marker = |x: &[f64; 3], nd: &mut Nodes, wt: &mut Weights| {
+            // SAFETY: this function runs only where AVX2 is available.
+            unsafe { roma3_marker_avx2(x, dims, periodic, nd, wt) }
+                .unwrap_or_else(|| marker_stencil(DeltaKernel::Roma3, x, dims, periodic, nd, wt))
+        };
+        self.build(marker, t, s, check)
+    }
+}
+
+/// A marker's stencil, axis by axis ([`axis_stencil`]): its lengths per axis.
+#[inline(always)]
+fn marker_stencil(
+    kernel: DeltaKernel,
+    x: &[f64; 3],
+    dims: [usize; 3],
+    periodic: [bool; 3],
+    nd: &mut Nodes,
+    wt: &mut Weights,
+) -> [u8; 3] {
+    let mut ln = [0u8; 3];
+    for a in 0..3 {
+        ln[a] = axis_stencil(kernel, x[a], dims[a], periodic[a], &mut nd[a], &mut wt[a]) as u8;
+    }
+    ln
+}
+
+/// The stencil of a marker at `x` for [`DeltaKernel::Roma3`] with its nine weights computed in
+/// three AVX2 vectors, or `None` (nothing written) when a walled axis would drop a point: the
+/// nodes as [`axis_stencil`] gives them, and the weights bitwise `φ`'s.
+///
+/// Why the same bits: on each axis the first node is `lo = ⌊x − 3/2⌋ + 1`, so the offsets
+/// `r_k = x − (lo + k)` (exact: an integer subtracted from a double whose result is no larger)
+/// lie in `r_0 ∈ [½, 3/2)`, `r_1 ∈ [−½, ½)`, `r_2 ∈ [−3/2, −½)`. The middle point always takes
+/// `φ`'s inner branch; the outer points take its outer branch except at the ends, `|r| = ½`
+/// (inner branch) and `|r| = 3/2` (zero), where the outer formula gives the same value
+/// exactly (½ and +0). Each lane does `φ`'s operations in `φ`'s order (`|r|`, products,
+/// differences, the correctly rounded square root and division), with no fused multiply-add,
+/// so it rounds as the scalar code does. Tested against [`axis_stencil`] in this module's
+/// tests, the ends included.
+///
+/// # Safety
+/// The processor must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn roma3_marker_avx2(
+    x: &[f64; 3],
+    dims: [usize; 3],
+    periodic: [bool; 3],
+    nd: &mut Nodes,
+    wt: &mut Weights,
+) -> Option<[u8; 3]> {
+    use std::arch::x86_64::*;
+    let mut lo = [0i64; 3];
+    for a in 0..3 {
+        lo[a] = crate::util::floor_i64(x[a] - 1.5) + 1;
+        // A walled axis whose three points are not all inside the box drops one.
+        let inside = (0..dims[a] as i64 - 2).contains(&lo[a]);
+        if !periodic[a] && !inside {
+            return None;
+        }
+    }
+    let r = |a: usize, k: i64| x[a] - (lo[a] + k) as f64;
+    // Outer points (k = 0, 2) in two vectors, inner points (k = 1) in one; spare lanes repeat
+    // a real point (their results are not read).
+    let outer_a = _mm256_set_pd(r(0, 2), r(2, 0), r(1, 0), r(0, 0));
+    let outer_b = _mm256_set_pd(r(2, 2), r(1, 2), r(2, 2), r(1, 2));
+    let inner = _mm256_set_pd(r(2, 1), r(2, 1), r(1, 1), r(0, 1));
+    let set = |v: f64| _mm256_set1_pd(v);
+    let (one, three, five, six) = (set(1.0), set(3.0), set(5.0), set(6.0));
+    let abs = |v: __m256d| _mm256_andnot_pd(set(-0.0), v);
+    let (add, sub, mul, div) = (
+        |a, b| _mm256_add_pd(a, b),
+        |a, b| _mm256_sub_pd(a, b),
+        |a, b| _mm256_mul_pd(a, b),
+        |a, b| _mm256_div_pd(a, b),
+    );
+    // φ(r) = (1 + √(1 − 3|r|²))/3 (inner), (5 − 3|r| − √(1 − 3(1 − |r|)²))/6 (outer), in φ's order.
+    let phi_inner = |r: __m256d| {
+        let a = abs(r);
+        div(add(one, _mm256_sqrt_pd(sub(one, mul(mul(three, a), a)))), three)
+    };
+    let phi_outer = |r: __m256d| {
+        let a = abs(r);
+        let b = sub(one, a);
+        div(sub(sub(five, mul(three, a)), _mm256_sqrt_pd(sub(one, mul(mul(three, b), b)))), six)
+    };
+    let mut wa = [0.0f64; 4];
+    let mut wb = [0.0f64; 4];
+    let mut wi = [0.0f64; 4];
+    _mm256_storeu_pd(wa.as_mut_ptr(), phi_outer(outer_a));
+    _mm256_storeu_pd(wb.as_mut_ptr(), phi_outer(outer_b));
+    _mm256_storeu_pd(wi.as_mut_ptr(), phi_inner(inner));
+    let w = [[wa[0], wi[0], wa[3]], [wa[1], wi[1], wb[0]], [wa[2], wi[2], wb[1]]];
+    for a in 0..3 {
+        let n = dims[a];
+        let mut node = if periodic[a] { wrap_first(lo[a], n) } else { lo[a] as usize };
+        for k in 0..3 {
+            nd[a][k] = node as u32;
+            wt[a][k] = w[a][k];
+            node += 1;
+            while node >= n {
+                node -= n;
+            }
+        }
+    }
+    Some([3; 3])
+}
+
 /// The 1-D stencil of a coordinate `x` on an axis of `n` nodes: writes the node coordinates and
 /// weights of the kept points and returns their number. Dispatches once to a copy of
 /// [`axis_stencil_w`] per kernel, whose width is a constant: its loops unroll and each weight's
@@ -418,6 +585,20 @@ fn axis_stencil(
     }
 }
 
+/// The node `lo` of a periodic axis of `n` nodes wrapped into `[0, n)`: one comparison for the
+/// stencils near the box (the integer division only for coordinates further out).
+#[inline(always)]
+fn wrap_first(lo: i64, n: usize) -> usize {
+    let ni = n as i64;
+    (if (0..ni).contains(&lo) {
+        lo
+    } else if (-ni..0).contains(&lo) {
+        lo + ni
+    } else {
+        lo.rem_euclid(ni)
+    }) as usize
+}
+
 /// [`axis_stencil`] for `kernel`, of `W = kernel.width()` points per axis.
 #[inline(always)]
 fn axis_stencil_w<const W: usize>(
@@ -432,18 +613,8 @@ fn axis_stencil_w<const W: usize>(
     let phi = |r: f64| kernel.phi(r);
     let lo = crate::util::floor_i64(x - kernel.support()) + 1;
     if periodic {
-        // The first node wrapped into [0, n): one comparison for the stencils near the box
-        // (the integer division only for coordinates further out), then wrap by subtraction
-        // (`n` may be < `W`).
-        let ni = n as i64;
-        let first = if (0..ni).contains(&lo) {
-            lo
-        } else if (-ni..0).contains(&lo) {
-            lo + ni
-        } else {
-            lo.rem_euclid(ni)
-        };
-        let mut node = first as usize;
+        // The first node wrapped into [0, n), then wrap by subtraction (`n` may be < `W`).
+        let mut node = wrap_first(lo, n);
         for k in 0..W {
             nodes[k] = node as u32;
             weights[k] = phi(x - (lo + k as i64) as f64);
@@ -480,6 +651,51 @@ fn axis_stencil_w<const W: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The vectorised Roma weights of `Stencils::build` against the scalar axis by axis, bit for
+    /// bit: random positions, the ends of the branches (`|r| = ½` and `3/2`: half-integer and
+    /// integer coordinates), tiny and far-off coordinates on periodic axes, and markers next
+    /// to a wall (which take the scalar path).
+    #[test]
+    fn roma3_vector_weights_are_the_scalar_ones() {
+        let grid = Grid::new(12, 9, 14);
+        let dims = [grid.nx, grid.ny, grid.nz];
+        let mut rng = crate::util::SplitMix64(11);
+        let mut coords: Vec<f64> = (0..400).map(|_| rng.uniform(-0.5, 8.5)).collect();
+        coords.extend((-1..=18).flat_map(|k| [k as f64, k as f64 + 0.5, k as f64 - 0.5]));
+        coords.extend([
+            1e-20,
+            -1e-20,
+            0.0,
+            -0.0,
+            1.5 - 1e-16,
+            1.5 + 1e-15,
+            2.5 - 1e-15,
+            -1e3 + 0.25,
+            1e4 + 0.5,
+        ]);
+        for periodic in [[true; 3], [false; 3], [true, false, true]] {
+            let ok = |c: f64, a: usize| periodic[a] || (-0.5..=dims[a] as f64 - 0.5).contains(&c);
+            let pos: Vec<[f64; 3]> = (0..coords.len())
+                .map(|i| [coords[i], coords[(i * 7 + 3) % coords.len()], coords[(i * 13 + 5) % coords.len()]])
+                .filter(|x| (0..3).all(|a| ok(x[a], a)))
+                .collect();
+            assert!(pos.len() > 100);
+            let mut st = Stencils::new(DeltaKernel::Roma3);
+            st.build(grid, periodic, &pos).unwrap();
+            for (m, x) in pos.iter().enumerate() {
+                let (mut nd, mut wt) = ([[0u32; MAX_WIDTH]; 3], [[0.0f64; MAX_WIDTH]; 3]);
+                let ln = marker_stencil(DeltaKernel::Roma3, x, dims, periodic, &mut nd, &mut wt);
+                assert_eq!(st.len[m], ln, "{x:?}");
+                for a in 0..3 {
+                    let l = ln[a] as usize;
+                    assert_eq!(st.node[m][a][..l], nd[a][..l], "{x:?} axis {a}");
+                    let bits = |w: &[f64]| w.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(&st.weight[m][a][..l]), bits(&wt[a][..l]), "{x:?} axis {a}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn slab_order_is_a_stable_grouping() {
