@@ -64,7 +64,7 @@ impl Moments {
                         let run = Run { x0: x0 as u32, len: len as u32, y: y as u32, z: z as u32 };
                         let at = y * grid.nx + x0;
                         let (jr, vr) = (&mut js[at..at + len], &mut vel[at..at + len]);
-                        fluid.run_moments_velocity(run, &mut rho, jr, f0, vr);
+                        fluid.run_moments(run, &mut rho, jr, f0, vr);
                     }
                 }
             },

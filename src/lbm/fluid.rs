@@ -746,37 +746,15 @@ impl<T: Real> Fluid<T> {
     /// passes, bitwise (the same sums in the same order, [`moments`]), computed a direction at
     /// a time over the whole run, so that the loop over the nodes runs in vector lanes (AVX2
     /// where the processor has it; IEEE operations lane by lane, no fused multiply-add: the
-    /// same bits either way). For passes over the whole grid (the coupling's dense steps).
+    /// same bits either way). In the same pass, the velocity `u = (j + F/2)/ρ` for a force
+    /// density `force` (e.g. [`Fluid::zero_field_force`]) into `velocity[k]`, formed as
+    /// `(j[a] + 0.5 * F[a]) / ρ`: bitwise that expression on `j[k]` and `rho[k]` (the divisions
+    /// in vector lanes too, each correctly rounded). For passes over the whole grid (the
+    /// coupling's dense steps).
     ///
     /// # Panics
-    /// If the run leaves the grid, or `rho` or `j` is shorter than the run.
-    pub fn run_moments(&self, run: crate::lattice::Run, rho: &mut [f64], j: &mut [[f64; 3]]) {
-        self.run_moments_with::<false>(run, rho, j, [0.0; 3], &mut []);
-    }
-
-    /// [`Fluid::run_moments`], and in the same pass the velocity `u = (j + F/2)/ρ` of every
-    /// node of the run for a force density `force` (e.g. [`Fluid::zero_field_force`]), into
-    /// `velocity[k]`, formed as `(j[a] + 0.5 * F[a]) / ρ` node by node: bitwise what that
-    /// expression gives on the outputs of [`Fluid::run_moments`] (the divisions in vector
-    /// lanes too, each correctly rounded).
-    ///
-    /// # Panics
-    /// As [`Fluid::run_moments`], or if `velocity` is shorter than the run.
-    pub fn run_moments_velocity(
-        &self,
-        run: crate::lattice::Run,
-        rho: &mut [f64],
-        j: &mut [[f64; 3]],
-        force: [f64; 3],
-        velocity: &mut [[f64; 3]],
-    ) {
-        self.run_moments_with::<true>(run, rho, j, force, velocity);
-    }
-
-    /// [`Fluid::run_moments`] with (`VEL`) or without the velocity of
-    /// [`Fluid::run_moments_velocity`].
-    #[inline(always)]
-    fn run_moments_with<const VEL: bool>(
+    /// If the run leaves the grid, or `rho`, `j` or `velocity` is shorter than the run.
+    pub fn run_moments(
         &self,
         run: crate::lattice::Run,
         rho: &mut [f64],
@@ -788,7 +766,7 @@ impl<T: Real> Fluid<T> {
         let (x0, len, y, z) = (run.x0 as usize, run.len as usize, run.y as usize, run.z as usize);
         assert!(x0 + len <= g.nx && y < g.ny && z < g.nz, "run {run:?} outside the grid {g:?}");
         let (rho, j) = (&mut rho[..len], &mut j[..len]);
-        let velocity = &mut velocity[..if VEL { len } else { 0 }];
+        let velocity = &mut velocity[..len];
         let even = self.time.is_multiple_of(2);
         let p0 = self.pidx(x0, y, z);
         let src: [&[T]; Q] = std::array::from_fn(|i| {
@@ -802,10 +780,10 @@ impl<T: Real> Fluid<T> {
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2 (checked just above).
-            unsafe { run_moments_avx2::<T, VEL>(&src, rho, j, force, velocity) };
+            unsafe { run_moments_avx2(&src, rho, j, force, velocity) };
             return;
         }
-        run_moments_rows::<T, VEL>(&src, rho, j, force, velocity);
+        run_moments_rows(&src, rho, j, force, velocity);
     }
 
     /// Density, momentum `j = Σ f_i c_i` (no force correction) and force density `F` (the
@@ -910,28 +888,28 @@ impl<T: Real> Fluid<T> {
 /// The processor must have AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn run_moments_avx2<T: Real, const VEL: bool>(
+unsafe fn run_moments_avx2<T: Real>(
     src: &[&[T]; Q],
     rho: &mut [f64],
     j: &mut [[f64; 3]],
     force: [f64; 3],
     velocity: &mut [[f64; 3]],
 ) {
-    run_moments_rows::<T, VEL>(src, rho, j, force, velocity)
+    run_moments_rows(src, rho, j, force, velocity)
 }
 
-/// `rho[k] = 1 + δρ`, `j[k]` from the populations `src[i][k]` of each node `k` ([`moments`]);
-/// with `VEL` also `velocity[k] = (j[k] + 0.5 F)/rho[k]` component by component
-/// (`velocity` as long as `rho`; empty otherwise).
+/// `rho[k] = 1 + δρ`, `j[k]` from the populations `src[i][k]` of each node `k` ([`moments`]),
+/// and `velocity[k] = (j[k] + 0.5 F)/rho[k]` component by component (`velocity` as long as
+/// `rho`).
 #[inline(always)]
-fn run_moments_rows<T: Real, const VEL: bool>(
+fn run_moments_rows<T: Real>(
     src: &[&[T]; Q],
     rho: &mut [f64],
     j: &mut [[f64; 3]],
     force: [f64; 3],
     velocity: &mut [[f64; 3]],
 ) {
-    assert!(velocity.len() == if VEL { rho.len() } else { 0 });
+    assert_eq!(velocity.len(), rho.len());
     for (k, (r, jk)) in rho.iter_mut().zip(j.iter_mut()).enumerate() {
         // Filled in a plain loop, not `std::array::from_fn`: a generic helper that is not
         // always inlined into `run_moments_avx2`, which then ran the whole loop without AVX2
@@ -943,10 +921,8 @@ fn run_moments_rows<T: Real, const VEL: bool>(
         let (drho, m) = moments(&h);
         *r = 1.0 + drho;
         *jk = m;
-        if VEL {
-            let rk = *r;
-            velocity[k] =
-                [(m[0] + 0.5 * force[0]) / rk, (m[1] + 0.5 * force[1]) / rk, (m[2] + 0.5 * force[2]) / rk];
-        }
+        let rk = *r;
+        velocity[k] =
+            [(m[0] + 0.5 * force[0]) / rk, (m[1] + 0.5 * force[1]) / rk, (m[2] + 0.5 * force[2]) / rk];
     }
 }
