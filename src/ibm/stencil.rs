@@ -439,9 +439,8 @@ impl Chunk<'_> {
     }
 
     /// [`Chunk::build`] for [`DeltaKernel::Roma3`] with the nine weights of a marker in three
-    /// AVX2 vectors: bitwise those of [`marker_stencil`] (module docs of
-    /// [`roma3_weights_avx2`]); markers whose stencil crosses a wall go through
-    /// [`marker_stencil`] itself.
+    /// AVX2 vectors: bitwise those of [`marker_stencil`] (why: [`roma3_marker_avx2`]); markers
+    /// whose stencil crosses a wall go through [`marker_stencil`] itself.
     ///
     /// # Safety
     /// The processor must support AVX2.
@@ -485,12 +484,13 @@ fn marker_stencil(
 /// three AVX2 vectors, or `None` (nothing written) when a walled axis would drop a point: the
 /// nodes as [`axis_stencil`] gives them, and the weights bitwise `φ`'s.
 ///
-/// Why the same bits: on each axis the first node is `lo = ⌊x − 3/2⌋ + 1`, so the offsets
-/// `r_k = x − (lo + k)` (exact: an integer subtracted from a double whose result is no larger)
-/// lie in `r_0 ∈ [½, 3/2)`, `r_1 ∈ [−½, ½)`, `r_2 ∈ [−3/2, −½)`. The middle point always takes
-/// `φ`'s inner branch; the outer points take its outer branch except at the ends, `|r| = ½`
-/// (inner branch) and `|r| = 3/2` (zero), where the outer formula gives the same value
-/// exactly (½ and +0). Each lane does `φ`'s operations in `φ`'s order (`|r|`, products,
+/// Why the same bits: on each axis the first node is `lo = ⌊x − 3/2⌋ + 1`, so the exact
+/// offsets `x − (lo + k)` lie in `[½, 3/2)`, `[−½, ½)` and `[−3/2, −½)` for `k = 0, 1, 2`;
+/// rounded as the scalar code rounds them (`r_k = x − (lo + k) as f64`, the same operation),
+/// they stay in the closed intervals, whose ends are representable and rounding monotone. So
+/// the middle point always takes `φ`'s inner branch, and the outer points its outer branch
+/// except at the ends, `|r| = ½` (inner branch) and `|r| = 3/2` (zero), where the outer
+/// formula gives the same value exactly (½ and +0). Each lane does `φ`'s operations in `φ`'s order (`|r|`, products,
 /// differences, the correctly rounded square root and division), with no fused multiply-add,
 /// so it rounds as the scalar code does. Tested against [`axis_stencil`] in this module's
 /// tests, the ends included.
