@@ -490,10 +490,10 @@ fn marker_stencil(
 /// they stay in the closed intervals, whose ends are representable and rounding monotone. So
 /// the middle point always takes `φ`'s inner branch, and the outer points its outer branch
 /// except at the ends, `|r| = ½` (inner branch) and `|r| = 3/2` (zero), where the outer
-/// formula gives the same value exactly (½ and +0). Each lane does `φ`'s operations in `φ`'s order (`|r|`, products,
-/// differences, the correctly rounded square root and division), with no fused multiply-add,
-/// so it rounds as the scalar code does. Tested against [`axis_stencil`] in this module's
-/// tests, the ends included.
+/// formula gives the same value exactly (½ and +0). Each lane does `φ`'s operations in `φ`'s
+/// order (`|r|`, products, differences, the correctly rounded square root and division), with
+/// no fused multiply-add, so it rounds as the scalar code does. Tested against
+/// [`axis_stencil`] in this module's tests, the ends included.
 ///
 /// # Safety
 /// The processor must support AVX2.
@@ -550,16 +550,14 @@ unsafe fn roma3_marker_avx2(
     _mm256_storeu_pd(wi.as_mut_ptr(), phi_inner(inner));
     let w = [[wa[0], wi[0], wa[3]], [wa[1], wi[1], wb[0]], [wa[2], wi[2], wb[1]]];
     for a in 0..3 {
-        let n = dims[a];
-        let mut node = if periodic[a] { wrap_first(lo[a], n) } else { lo[a] as usize };
-        for k in 0..3 {
-            nd[a][k] = node as u32;
-            wt[a][k] = w[a][k];
-            node += 1;
-            while node >= n {
-                node -= n;
+        if periodic[a] {
+            periodic_nodes::<3>(lo[a], dims[a], &mut nd[a]);
+        } else {
+            for k in 0..3 {
+                nd[a][k] = (lo[a] + k as i64) as u32;
             }
         }
+        wt[a][..3].copy_from_slice(&w[a]);
     }
     Some([3; 3])
 }
@@ -585,18 +583,26 @@ fn axis_stencil(
     }
 }
 
-/// The node `lo` of a periodic axis of `n` nodes wrapped into `[0, n)`: one comparison for the
-/// stencils near the box (the integer division only for coordinates further out).
+/// The `W` nodes `lo, …, lo + W − 1` of a periodic axis of `n` nodes, wrapped into `[0, n)`:
+/// the first with one comparison for the stencils near the box (the integer division only for
+/// coordinates further out), the others by subtraction (`n` may be < `W`).
 #[inline(always)]
-fn wrap_first(lo: i64, n: usize) -> usize {
+fn periodic_nodes<const W: usize>(lo: i64, n: usize, nodes: &mut [u32; MAX_WIDTH]) {
     let ni = n as i64;
-    (if (0..ni).contains(&lo) {
+    let mut node = (if (0..ni).contains(&lo) {
         lo
     } else if (-ni..0).contains(&lo) {
         lo + ni
     } else {
         lo.rem_euclid(ni)
-    }) as usize
+    }) as usize;
+    for slot in &mut nodes[..W] {
+        *slot = node as u32;
+        node += 1;
+        while node >= n {
+            node -= n;
+        }
+    }
 }
 
 /// [`axis_stencil`] for `kernel`, of `W = kernel.width()` points per axis.
@@ -613,15 +619,9 @@ fn axis_stencil_w<const W: usize>(
     let phi = |r: f64| kernel.phi(r);
     let lo = crate::util::floor_i64(x - kernel.support()) + 1;
     if periodic {
-        // The first node wrapped into [0, n), then wrap by subtraction (`n` may be < `W`).
-        let mut node = wrap_first(lo, n);
+        periodic_nodes::<W>(lo, n, nodes);
         for k in 0..W {
-            nodes[k] = node as u32;
             weights[k] = phi(x - (lo + k as i64) as f64);
-            node += 1;
-            while node >= n {
-                node -= n;
-            }
         }
         return W;
     }
