@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# save-leg.sh RUN_OUT DEST : keep a reproduction that has not finished (the --out directory of
+# `slurry reproduce`, running or stopped at a checkpoint) as one **leg** of a campaign, in the
+# checkout's archive, e.g. reproduce/CASE/runs/DATE-sSCALE-below-leg1/: manifest.json,
+# start.json (a run started with --start-from), run/timeseries.csv, and a start pack of its
+# last frames in DEST/start/ (`slurry start-pack`, under 1 MB), so that the next leg can
+# `--start-from DEST/start` once RUN_OUT is gone with the machine.
+#
+# Why: the campaign's runs directory was lost with the machine at six session ends
+# (reproduce/README.md, "The campaign's history"); a run at s = 1/2 needs 10-14 h of stepping,
+# several sessions. A leg started from a pack is a new run: its particles where the last one
+# left them, at rest, the fluid at rest and the impeller's ramp (slurry::reproduce::start),
+# so each leg begins with a transient of a few revolutions; the legs' time series are joined
+# by hand, and a steady verdict is only that of one leg (the report's test on its own last 20
+# revolutions). A run that survived is resumed with --resume instead, bit for bit.
+#
+# Stop the run first (SIGTERM: it writes a checkpoint of the step it has reached and exits),
+# so that the pack and the time series end at the same step. SLURRY names the binary (default
+# target/release/slurry). Write DEST/MANIFEST.md by hand: the leg's steps, revolutions,
+# ⟨z_p⟩/H, binary, host. Fields, particle histories and checkpoints stay out of git.
+set -eu
+if [ $# -ne 2 ]; then sed -n '2,21p' "$0"; exit 2; fi
+SLURRY=${SLURRY:-target/release/slurry}
+src=$1 dest=$2
+for f in manifest.json run/timeseries.csv run/particles.h5; do
+  [ -f "$src/$f" ] || { echo "save-leg.sh: $src/$f is missing (not a reproduction's output directory?)" >&2; exit 1; }
+done
+mkdir -p "$dest"
+cp "$src/manifest.json" "$src/run/timeseries.csv" "$dest/"
+[ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
+"$SLURRY" start-pack "$src" "$dest/start"
+du -sh "$dest" "$dest/start"
+tail -n 1 "$dest/timeseries.csv" | cut -d, -f1,8
