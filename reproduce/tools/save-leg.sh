@@ -19,7 +19,7 @@
 # target/release/slurry). Write DEST/MANIFEST.md by hand: the leg's steps, revolutions,
 # ⟨z_p⟩/H, binary, host. Fields, particle histories and checkpoints stay out of git.
 set -eu
-if [ $# -ne 2 ]; then sed -n '2,21p' "$0"; exit 2; fi
+if [ $# -ne 2 ]; then sed -n '2,20p' "$0"; exit 2; fi
 SLURRY=${SLURRY:-target/release/slurry}
 src=$1 dest=$2
 for f in manifest.json run/timeseries.csv run/particles.h5; do
