@@ -9,8 +9,9 @@
 //!   linked worktree its own, under `.git/worktrees/NAME`); `HEAD` itself is watched too, for a
 //!   repository without reflogs (then a commit on the current branch is seen through the
 //!   branch's loose ref or `packed-refs` of the common directory);
-//! - any file compiled into the binary changes (`-dirty`): `src`, the paper cases' `case.toml`
-//!   and `paper.toml` (`include_str!`), `assets` (the plot font), `Cargo.toml`, `Cargo.lock`.
+//! - any file compiled into the binary changes (`-dirty`): `src` and `reproduce/src` (the
+//!   reproduction crate, which builds the binary), the paper cases' `case.toml` and
+//!   `paper.toml` (`include_str!`), `assets` (the plot font), the `Cargo.toml`s, `Cargo.lock`.
 //!
 //! An edit elsewhere (a README) does not rerun it, so `-dirty` can lag behind such edits; it
 //! never misses one to what is compiled in. Git's optional index lock is not taken
@@ -56,7 +57,9 @@ fn main() {
             println!("cargo:rerun-if-changed={}", p.display());
         }
     }
-    for p in ["src", "assets", "Cargo.toml", "Cargo.lock", "build.rs"] {
+    for p in
+        ["src", "assets", "Cargo.toml", "Cargo.lock", "build.rs", "reproduce/src", "reproduce/Cargo.toml"]
+    {
         println!("cargo:rerun-if-changed={p}");
     }
     for case in ["disk-ld1", "disk-ld2", "disk-ld4", "pbt-ld1", "pbt-ld2", "pbt-ld4"] {

@@ -1,6 +1,6 @@
 //! What the drivers share (`run`, `settle`, and through them `reproduce`): the solver built
-//! from a [`Case`] ([`fluid`], [`coupled`]) and the particle output of `particles.h5`
-//! ([`particle_frame`], [`particle_statics`]). A driver builds and writes through these, so
+//! from a [`Case`] (`fluid`, `coupled`) and the particle output of `particles.h5`
+//! (`particle_frame`, `particle_statics`). A driver builds and writes through these, so
 //! that a bed settled by `settle` and a stirred run of `run` start from the same set-up and
 //! write the same layout; no driver imports another for them.
 

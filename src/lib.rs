@@ -32,13 +32,17 @@
 //! - [`bench`](mod@bench): the fused kernel's throughput;
 //! - [`plot`]: PNG and SVG figures (field images with a colour bar, x–y line plots) with a
 //!   bundled font;
-//! - [`stats`]: the paper's particle statistics (mean height, solids volume fraction,
-//!   kinetic energy and orientation profiles, power averages, steady-state test);
-//! - [`reproduce`]: the paper's six stirred cases, scaled, from bed to report.
+//! - [`cli`]: the solver's commands (`run`, `check`, `settle`, `bench`) and the options they
+//!   share, for the `slurry` binary.
+//!
+//! The paper's reproduction (its cases, statistics, report and campaign tools) is the
+//! separate crate `slurry-reproduce` in `reproduce/`, which builds the `slurry` binary; it
+//! uses this library, never the other way round.
 #![warn(missing_docs)]
 
 pub mod bench;
 pub mod case;
+pub mod cli;
 pub mod contact;
 pub mod coupling;
 pub mod drive;
@@ -48,9 +52,12 @@ pub mod io;
 pub mod lattice;
 pub mod lbm;
 pub mod plot;
-pub mod reproduce;
 pub mod rigid;
 pub mod run;
 pub mod settle;
-pub mod stats;
 pub mod util;
+
+/// The git revision of the checkout this library was built from (`git describe --always
+/// --dirty --abbrev=12`, by `build.rs`), empty outside a git work tree: run manifests name the
+/// build that ran them.
+pub const BUILD_REVISION: &str = env!("SLURRY_BUILD_REVISION");

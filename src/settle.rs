@@ -456,8 +456,8 @@ pub struct DryBedOptions {
 impl DryBedOptions {
     /// The step limit for `case`: `⌈max_falls · n_z / terminal_speed⌉`, with the default 4
     /// falls 4800 steps at s = 1/4, 9600 at s = 1/2 and 19 200 at s = 1 (as the wet rule allows
-    /// 4 fall times). A fixed 2000 stopped the s = 1/2 beds unsettled (pbt-ld2: mean speed
-    /// 3.2e-3 against the stop at 2.5e-3; it settles in 2314 steps, 2026-11-25).
+    /// 4 fall times). A fixed 2000 stops the s = 1/2 beds unsettled (pbt-ld2: mean speed
+    /// 3.2e-3 against the stop at 2.5e-3; it settles in 2314 steps).
     pub fn max_steps(&self, case: &Case) -> u64 {
         (self.max_falls * case.domain.nz as f64 / self.terminal_speed).ceil() as u64
     }
@@ -655,12 +655,12 @@ pub fn dry_bed(case: &Case, opts: DryBedOptions) -> anyhow::Result<Bed> {
     }
     // The amplified gravity presses the lower particles into each other harder than the case's
     // own would ever do: the net weight in lattice units grows as s², and at full scale a rim
-    // loaded by the column above sinks into its neighbour (pbt-ld1, 1644 cylinders of d = 12,
-    // 2026-11-27: particles 399 and 48). The stirred run takes the bed as explicit particles,
-    // which must not overlap; so the bed relaxes at the case's gravity (same drag, so still
-    // overdamped) until it is admissible, checked by the case's own test every
-    // `RELAX_CHECK_EVERY` steps, and at rest again (below the stopping speed). An admissible
-    // bed (every bed at s ≤ 1/2 so far) is returned unchanged.
+    // loaded by the column above sinks into its neighbour (pbt-ld1, 1644 cylinders of d = 12:
+    // particles 399 and 48). The stirred run takes the bed as explicit particles, which must
+    // not overlap; so the bed relaxes at the case's gravity (same drag, so still overdamped)
+    // until it is admissible, checked by the case's own test every `RELAX_CHECK_EVERY` steps,
+    // and at rest again (below the stopping speed). An admissible bed (every bed at s ≤ 1/2
+    // so far) is returned unchanged.
     let mut relax_steps = 0u64;
     let mut particles = resting_specs(&inits, &bodies);
     let mut settled = vmean < stop;

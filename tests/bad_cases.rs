@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::BIN;
+use common::bin;
 
 /// Every corpus file, sorted.
 fn corpus() -> Vec<PathBuf> {
@@ -45,7 +45,7 @@ fn every_bad_case_is_refused_with_status_2_naming_file_and_key() {
     for path in &files {
         let key = expected_key(path);
         let t0 = Instant::now();
-        let out = Command::new(BIN)
+        let out = Command::new(bin())
             .arg("check")
             .arg(path)
             .env("SLURRY_MEMORY_LIMIT", "1G")

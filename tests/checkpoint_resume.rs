@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::{case_toml, write_case, BIN};
+use common::{bin, case_toml, write_case};
 
 /// A channel (periodic x and y) sheared by a moving lid and driven by a body force, f32 TRT.
 fn case(steps: u64, nu: f64) -> String {
@@ -24,7 +24,7 @@ fn case(steps: u64, nu: f64) -> String {
 }
 
 fn run(case: &Path, out: &Path, resume: bool) -> std::process::Output {
-    let mut c = Command::new(BIN);
+    let mut c = Command::new(bin());
     c.args(["run"]).arg(case).arg("--out").arg(out).arg("--quiet");
     if resume {
         c.arg("--resume");
@@ -61,7 +61,7 @@ fn killed_and_resumed_equals_uninterrupted() {
 
     // Start the same run, kill it (SIGKILL) as soon as its first checkpoint exists.
     let mut child =
-        Command::new(BIN).args(["run"]).arg(&c).arg("--out").arg(&b).arg("--quiet").spawn().unwrap();
+        Command::new(bin()).args(["run"]).arg(&c).arg("--out").arg(&b).arg("--quiet").spawn().unwrap();
     let t0 = Instant::now();
     while !b.join("checkpoint.h5").exists() && t0.elapsed() < Duration::from_secs(60) {
         std::thread::sleep(Duration::from_millis(2));
@@ -127,7 +127,7 @@ fn a_fresh_start_over_a_checkpoint_is_refused_unless_overwrite() {
     assert_eq!(std::fs::read(a.join("checkpoint.h5")).unwrap(), checkpoint, "the checkpoint was touched");
 
     let again =
-        Command::new(BIN).arg("run").arg(&c).arg("--out").arg(&a).args(["--quiet", "--overwrite"]).output();
+        Command::new(bin()).arg("run").arg(&c).arg("--out").arg(&a).args(["--quiet", "--overwrite"]).output();
     assert!(again.unwrap().status.success());
     assert_eq!(physics_rows(&a.join("timeseries.csv")).len(), 2 + 4, "the run started over");
 
@@ -144,8 +144,13 @@ fn a_fresh_start_over_a_checkpoint_is_refused_unless_overwrite() {
     assert!(!err.contains("--resume"), "nothing to resume from: {err}");
     assert_eq!(std::fs::read(a.join("timeseries.csv")).unwrap(), series, "the series was touched");
 
-    let both =
-        Command::new(BIN).arg("run").arg(&c).arg("--out").arg(&a).args(["--resume", "--overwrite"]).output();
+    let both = Command::new(bin())
+        .arg("run")
+        .arg(&c)
+        .arg("--out")
+        .arg(&a)
+        .args(["--resume", "--overwrite"])
+        .output();
     assert_eq!(both.unwrap().status.code(), Some(2), "clap's usage error");
 }
 
@@ -246,7 +251,7 @@ fn switch_contacts_resumes_under_another_contact_scheme_only() {
     assert!(run(&reference, &a, false).status.success());
     assert!(run(&explicit, &b, false).status.success());
     let switch = |case: &Path| {
-        Command::new(BIN)
+        Command::new(bin())
             .args(["run"])
             .arg(case)
             .arg("--out")
@@ -277,7 +282,7 @@ fn switch_contacts_resumes_under_another_contact_scheme_only() {
 /// Starts `slurry run CASE --out OUT`, sends it `signal` once its time series holds `rows`
 /// rows, and waits for it.
 fn signalled_run(case: &Path, out: &Path, signal: i32, rows: usize) -> std::process::Output {
-    let mut child = Command::new(BIN)
+    let mut child = Command::new(bin())
         .args(["run"])
         .arg(case)
         .arg("--out")

@@ -406,7 +406,7 @@ fn settle_stopped_by_sigterm_keeps_its_checkpoint_and_resumes_bitwise() {
     let o = slurry(&args(&whole).iter().map(String::as_str).collect::<Vec<_>>());
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
 
-    let mut child = std::process::Command::new(common::BIN)
+    let mut child = std::process::Command::new(common::bin())
         .args(args(&parts))
         .stderr(std::process::Stdio::piped())
         .spawn()

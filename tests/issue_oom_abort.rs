@@ -17,7 +17,7 @@ use slurry::case::Case;
 
 mod common;
 
-use common::{case_toml, BIN};
+use common::{bin, case_toml};
 
 /// A channel (periodic x and y) of `nx × ny × nz` nodes, with `extra` appended.
 fn case(nx: usize, ny: usize, nz: usize, precision: &str, extra: &str) -> String {
@@ -29,7 +29,7 @@ fn check(text: &str, limit: Option<&str>) -> (Output, String, String) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("case.toml");
     std::fs::write(&path, text).unwrap();
-    let mut c = Command::new(BIN);
+    let mut c = Command::new(bin());
     c.arg("check").arg(&path);
     match limit {
         Some(l) => c.env("SLURRY_MEMORY_LIMIT", l),
@@ -126,7 +126,7 @@ fn run_refuses_too_large_a_grid_before_allocating() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("case.toml");
     std::fs::write(&path, case(600, 600, 600, "f64", "")).unwrap();
-    let out = Command::new(BIN)
+    let out = Command::new(bin())
         .arg("run")
         .arg(&path)
         .arg("--out")

@@ -15,7 +15,7 @@ use std::process::Command;
 
 mod common;
 
-use common::{case_toml, write_case, BIN};
+use common::{bin, case_toml, write_case};
 
 /// A free sphere falling onto the floor (contacts on) and a free cylinder, f32, TRT.
 fn case(steps: u64, checkpoint_every: u64) -> String {
@@ -45,7 +45,7 @@ position = [8.0, 7.0, 3.0]
 }
 
 fn run(case: &Path, out: &Path, resume: bool) {
-    let mut c = Command::new(BIN);
+    let mut c = Command::new(bin());
     c.arg("run").arg(case).arg("--out").arg(out).arg("--quiet").arg("--threads").arg("1");
     if resume {
         c.arg("--resume");

@@ -8,7 +8,7 @@ use std::process::Command;
 
 mod common;
 
-use common::BIN;
+use common::bin;
 
 #[test]
 fn next_start_removes_stale_temporary_files() {
@@ -25,7 +25,7 @@ fn next_start_removes_stale_temporary_files() {
     for keep in [live.as_str(), "notes.txt", ".hidden", "x.tmp.123"] {
         std::fs::write(out.join(keep), b"keep").unwrap();
     }
-    let o = Command::new(BIN)
+    let o = Command::new(bin())
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .args(["run", "examples/couette.toml", "--quiet", "--out"])
         .arg(&out)

@@ -10,11 +10,11 @@ use std::time::{Duration, Instant};
 
 mod common;
 
-use common::BIN;
+use common::bin;
 
 fn slurry(args: &[&str], env: Option<(&str, &str)>) -> (Output, Duration) {
     let t0 = Instant::now();
-    let mut c = Command::new(BIN);
+    let mut c = Command::new(bin());
     c.args(args).current_dir(env!("CARGO_MANIFEST_DIR"));
     if let Some((k, v)) = env {
         c.env(k, v);

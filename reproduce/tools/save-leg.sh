@@ -7,9 +7,9 @@
 # `--start-from DEST/start` once RUN_OUT is gone with the machine.
 #
 # Why: the campaign's runs directory was lost with the machine at six session ends
-# (reproduce/README.md, "The campaign's history"); a run at s = 1/2 needs 10-14 h of stepping,
+# (reproduce/JOURNAL.md, "The campaign's history"); a run at s = 1/2 needs 10-14 h of stepping,
 # several sessions. A leg started from a pack is a new run: its particles where the last one
-# left them, at rest, the fluid at rest and the impeller's ramp (slurry::reproduce::start),
+# left them, at rest, the fluid at rest and the impeller's ramp (slurry_reproduce::start),
 # so each leg begins with a transient of a few revolutions; the legs' time series are joined
 # by hand, and a steady verdict is only that of one leg (the report's test on its own last 20
 # revolutions). A run that survived is resumed with --resume instead, bit for bit.

@@ -1,6 +1,6 @@
 //! How much memory a case needs, and how much the machine has: `slurry check` and
-//! `slurry run` refuse a case that cannot fit before allocating anything large (issue 15:
-//! a 600³ f64 grid aborted with `memory allocation of N bytes failed`).
+//! `slurry run` refuse a case that cannot fit before allocating anything large (without the
+//! check, a 600³ f64 grid aborts with `memory allocation of N bytes failed`).
 //!
 //! [`MemoryEstimate::of`] adds up, in bytes (`N` interior nodes, `P = (nx+2)(ny+2)(nz+2)`
 //! padded nodes, `b` bytes per number of the storage precision, `M` surface markers,

@@ -30,7 +30,8 @@
 //! ```
 //!
 //! Particles (module [`particles`]): a top-level `gravity = [gx, gy, gz]`, an `[ibm]` section
-//! (kernel, forcing iterations, marker spacing), explicit `[[particles]]` and random
+//! (kernel, forcing iterations, marker spacing, and the forcing markers' `retraction` into the
+//! surface, which sets the bodies' hydrodynamic size), explicit `[[particles]]` and random
 //! `[[random_particles]]` populations, placed without overlap by [`placement`].
 //!
 //! [`Case::from_file`] reads and checks a file in four stages, each reporting the file name,
@@ -69,7 +70,8 @@ pub use schema::{
 
 /// Largest allowed relaxation time τ (`fluid.tau`, or `3 fluid.nu + 1/2`): beyond it the
 /// fluid is so viscous per step that bounce-back walls slip by more than a lattice spacing
-/// (their error grows as τ²) and the run says nothing physical; `nu = 1e12` was accepted.
+/// (their error grows as τ²) and the run says nothing physical (without it, `nu = 1e12` is
+/// accepted).
 pub const MAX_TAU: f64 = 100.0;
 
 /// `[a, b, c]` with each component in shortest round-trip form.

@@ -659,9 +659,9 @@ mod tests {
 
     /// Clearance 0 (the overlap check of explicit particles, e.g. a settled bed's): touching and
     /// interpenetrating pairs, where GJK's simplex can enclose the origin, are decided without a
-    /// panic, and an overlap is never called apart. (Before 2026-11-27 a tetrahedron enclosing
-    /// the origin to within round-off grew to a fifth vertex and indexed out of bounds: the
-    /// full-scale pbt-ld1 bed, 1644 cylinders with d = 12, hit it.)
+    /// panic, and an overlap is never called apart: a tetrahedron that encloses the origin to
+    /// within round-off must not grow to a fifth vertex and index out of bounds (the full-scale
+    /// pbt-ld1 bed, 1644 cylinders with d = 12, has such pairs).
     #[test]
     fn clearance_zero_decides_touching_and_overlapping_pairs() {
         let mut rng = SplitMix64(11);

@@ -321,7 +321,7 @@ fn checkpoint_every_must_be_even_and_within_steps() {
     assert_eq!(ok.run.checkpoint_every, Some(20));
     // The fingerprint ignores the run length, the checkpoint cadence, the snapshots and the
     // Mach limit (a run may be resumed with other ones), nothing else; at the default Mach
-    // limit it is the normalised text without the first two, as it always was.
+    // limit it is the normalised text without the first two, as in older versions.
     let longer = Case::parse(&edit("steps = 100", "steps = 500"), "t.toml").unwrap();
     assert_eq!(ok.fingerprint(), longer.fingerprint());
     let looser =

@@ -32,7 +32,7 @@
 //! [`Narrow`]'s pair search). In a resting bed of flat faces this lists about 3× the
 //! interacting pairs instead of 13× for the range alone.
 //!
-//! **Cost.** A rebuild costs what one evaluation of the old per-sub-step narrow phase cost
+//! **Cost.** A rebuild costs what one evaluation of a narrow phase at every sub-step costs
 //! (patches, signed-distance pruning, per-pair bins); an evaluation from the list costs one
 //! transform per listed marker and one distance test per listed pair, plus the force law of
 //! the pairs within reach.

@@ -197,7 +197,7 @@
 //! (the limiter rarely acts); `n_sub = 4` 1864 steps, 9.49; `n_sub = 2` does not settle within
 //! 2000 steps (mean speed 4.8e-3 against the stop at 2.5e-3: the springs of the bed jitter,
 //! under-damped). In the coupled step after the ramp (`slurry bench --coupled --scales 0.25
-//! --cases pbt-ld2 --warmup 1100 --steps 40`, 2 threads, one run, 2026-11-25; fluid-only step
+//! --cases pbt-ld2 --warmup 1100 --steps 40`, 2 threads, one run; fluid-only step
 //! 1.9 ms), contacts cost 19.6 ms per step at explicit `n_sub = 8` (step 36.9 ms), and with
 //! the limiter 22.1 ms at 8 (38.9; the split sums cost 13 %), 12.8 ms at 4 (30.8), 7.3 ms
 //! at 2 (25.0) and 4.2 ms at 1 (20.6). The
@@ -235,10 +235,12 @@
 //! pbt-ld2 at steady state, contacts 15.8 ms per fluid step at the default against 10.8 ms
 //! at `2 × 4` (step 46.6 → 42.1–45.0 ms); pbt-ld1 after 33 revolutions (1644 cylinders, most
 //! in the bed), contacts 35.5 → 18.3 ms, step 69.7 → 47.2 ms; at s = 1/2 from the six beds
-//! the contacts halve and the step is 1.1–1.3 times faster (2026-11-27). **Not the default**:
-//! two paired continuations of steady runs at s = 1/4 put ⟨z_p⟩/H lower by 0.003–0.004
-//! (pbt-ld2) and 0.006–0.0075 (disk-ld1), beyond the spread of two realisations, with the power
-//! numbers unchanged within their noise (reproduce/README.md, "Lubrication sub-steps").
+//! the contacts halve and the step is 1.1–1.3 times faster
+//! (`benches/results/2026-11-27-coupled-s0.5-scheme-default.json`, `-lub24.json`).
+//! **Not the default**: two paired continuations of steady runs at s = 1/4 put ⟨z_p⟩/H lower
+//! by 0.003–0.004 (pbt-ld2) and 0.006–0.0075 (disk-ld1), beyond the spread of two
+//! realisations, with the power numbers unchanged within their noise (reproduce/JOURNAL.md,
+//! "Lubrication sub-steps").
 //!
 //! # Known deviations of the model (measured by `contacts_dry`)
 //!
@@ -271,9 +273,9 @@
 //! | + skin 0.3 | 720 612 | 188.4 |
 //! | + sides transformed per pair (no world table; the default) | 720 612 | 103.7 |
 //!
-//! The rest is the force law and the distance tests of the listed pairs. The earlier narrow
-//! phase at every sub-step cost about 650 ns per interacting pair (2.13 s per fluid step for
-//! the same bed at full scale, measured in the previous version).
+//! The rest is the force law and the distance tests of the listed pairs. A narrow phase at
+//! every sub-step, without the list, costs about 650 ns per interacting pair (2.13 s per fluid
+//! step for the same bed at full scale).
 
 mod broad;
 mod contacts;

@@ -165,13 +165,13 @@ use crate::rigid::{
 /// The whole-grid path is taken when the bodies' bands are estimated to hold more than this
 /// fraction of the grid's nodes (module docs, "Dense beds"). Only the cost depends on it.
 ///
-/// Measured 2026-11-27 (2 threads, f32, `benches/results/2026-11-27-dense-vs-band.json`):
-/// the whole-grid path was the faster in every case, by 1.18–1.43 times at s = 1/4 and 1/2
-/// (band fractions 0.70–2.4) and by 1.72 times at s = 1 (0.33 and 0.38, where the earlier
-/// threshold of 1/2 chose the bands): a band node costs about 15 times a node of the
-/// whole-grid pass (the 19 populations of a short run each a cache line of their own), so
-/// the two break even near a fifteenth of the grid. A single body in a large box (the
-/// verification's spheres, fractions below 0.01) keeps its band.
+/// Measured (2 threads, f32, `benches/results/2026-11-27-dense-vs-band.json`): the whole-grid
+/// path is the faster in every case, by 1.18–1.43 times at s = 1/4 and 1/2 (band fractions
+/// 0.70–2.4) and by 1.72 times at s = 1 (0.33 and 0.38, where a threshold of 1/2 would choose
+/// the bands): a band node costs about 15 times a node of the whole-grid pass (the 19
+/// populations of a short run each a cache line of their own), so the two break even near a
+/// fifteenth of the grid. A single body in a large box (the verification's spheres, fractions
+/// below 0.01) keeps its band.
 pub const DENSE_BAND_FRACTION: f64 = 0.1;
 
 mod band;

@@ -412,16 +412,16 @@ fn retracted_stencils_need_the_widened_band() {
 }
 
 /// The interior sums of phases 3 and 7 equal, bit for bit, a fresh walk of each body's rows
-/// with the signed distance evaluated at the partial nodes (the computation phase 7 did
-/// before it gathered over phase 3's record): for a free tilted cylinder moving across the
-/// periodic boundaries and a free sphere next to a wall, over steps in which both move.
+/// with the signed distance evaluated at the partial nodes (the computation without gathering
+/// over phase 3's record): for a free tilted cylinder moving across the periodic boundaries
+/// and a free sphere next to a wall, over steps in which both move.
 #[test]
 fn interior_sums_equal_a_fresh_walk_bitwise() {
     use super::band::{emit_runs, row_spans};
     use super::interior::Moment;
     use crate::lbm::FaceBoundary;
     use crate::rigid::{Cylinder, Quat};
-    /// The walk as phases 3 and 7 both did it before the record (reference).
+    /// The walk of phases 3 and 7 without the record (reference).
     fn walk(fluid: &Fluid<f32>, body: &RigidBody, periodic: [bool; 3]) -> [u64; 7] {
         let grid = fluid.grid();
         let shape = body.shape().as_ref();

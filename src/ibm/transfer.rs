@@ -232,9 +232,9 @@ pub fn spread_into<S: ForceSink + ?Sized>(forces: &[[f64; 3]], stencils: &Stenci
     }
     for phase in 0..2 {
         // One task per slab (`with_max_len(1)`): the markers crowd into a few slabs (a settled
-        // bed, the impeller's plane), and rayon's adaptive splitting alone left a whole run
-        // of the heavy slabs to one thread (the spreading then took as long on 2 threads as
-        // on 1).
+        // bed, the impeller's plane), and rayon's adaptive splitting alone can leave a whole
+        // run of the heavy slabs to one thread (the spreading then takes as long on 2 threads
+        // as on 1).
         (0..(slabs - phase).div_ceil(2)).into_par_iter().with_max_len(1).for_each(|k| {
             let s = phase + 2 * k;
             let markers = stencils.slab_markers(s);

@@ -43,8 +43,8 @@
 //!
 //! The cost is linear in the run: an output step copies at most one segment, `SEGMENT_FRAMES`
 //! frames of `P × 19 × 8` bytes (32 × 250 kB = 8 MB for the paper's 1644 particles), and the
-//! merge copies the history once. (The earlier layout copied the whole file at every output
-//! step: `O(F²)` bytes, 250 GB for a 2000-frame run of 822 particles.)
+//! merge copies the history once. (Copying the whole file at every output step would cost
+//! `O(F²)` bytes, 250 GB for a 2000-frame run of 822 particles.)
 //!
 //! [`read_particle_history`] reads `particles.h5` and then the segments, so a run in progress
 //! or one stopped by an error reads like a finished one.

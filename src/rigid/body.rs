@@ -7,7 +7,7 @@ use super::shape::{Marker, MassProperties, Shape};
 use super::{Mat3, Quat, Vec3};
 
 /// A motion imposed on a body, as functions of time (world frame; angular velocity about the
-/// centre of mass). Impellers implement it (next issue).
+/// centre of mass). Impellers implement it ([`super::impeller::RampedRotation`]).
 pub trait PrescribedMotion: Send + Sync + std::fmt::Debug {
     /// Velocity of the centre of mass at time `t`.
     fn velocity(&self, t: f64) -> Vec3;

@@ -1,6 +1,6 @@
 //! Fixtures shared by the integration tests. Each file of `tests/` is its own crate and takes
-//! these with `mod common;`: the `slurry` binary, case files built from their required
-//! sections, and the messages of refused cases.
+//! these with `mod common;` (the reproduction crate's tests with `#[path]`): the `slurry`
+//! binary, case files built from their required sections, and the messages of refused cases.
 //!
 //! (The library's unit tests, `src/case/tests.rs`, keep their own case text: they are compiled
 //! into the library, where this module, which names the binary, does not exist.)
@@ -10,19 +10,72 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::sync::OnceLock;
+use std::time::SystemTime;
 
 use slurry::case::Case;
 
-/// The `slurry` binary of this build.
-pub const BIN: &str = env!("CARGO_BIN_EXE_slurry");
+/// The repository's root, where the commands of the tests run (so that `examples/…` and
+/// `reproduce/…` paths resolve): this package's directory, or its parent for the
+/// reproduction crate (`reproduce/`).
+pub fn root() -> &'static Path {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    if dir.join("xtask").is_dir() {
+        dir
+    } else {
+        dir.parent().expect("reproduce/ has a parent directory")
+    }
+}
 
-/// Runs `slurry ARGS` in the crate's root (so that `examples/…` paths resolve) and waits.
+/// The `slurry` binary of this build. The reproduction crate builds it, so its tests get it
+/// from cargo (`CARGO_BIN_EXE_slurry`); the solver's tests find it beside their own
+/// executable's directory, where `cargo test --workspace` (or `cargo test` at the root, whose
+/// default members are both crates) links it. A binary older than the solver library it
+/// should contain is refused, so that a test never runs yesterday's binary.
+pub fn bin() -> &'static Path {
+    static BIN: OnceLock<PathBuf> = OnceLock::new();
+    BIN.get_or_init(|| {
+        if let Some(p) = option_env!("CARGO_BIN_EXE_slurry") {
+            return PathBuf::from(p);
+        }
+        let exe = std::env::current_exe().expect("the test's executable");
+        let deps = exe.parent().expect("target/PROFILE/deps");
+        let bin =
+            deps.parent().expect("target/PROFILE").join(format!("slurry{}", std::env::consts::EXE_SUFFIX));
+        let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+        let built = modified(&bin).unwrap_or_else(|| {
+            panic!(
+                "{} is not built: the solver's integration tests run the binary of the reproduction crate; \
+                 run them with `cargo test --workspace` (or `cargo test` at the root)",
+                bin.display()
+            )
+        });
+        // The newest build of the library in this profile.
+        let library: Option<SystemTime> = std::fs::read_dir(deps)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .filter(|e| {
+                let name = e.file_name().to_string_lossy().into_owned();
+                name.starts_with("libslurry-") && name.ends_with(".rlib")
+            })
+            .filter_map(|e| modified(&e.path()))
+            .max();
+        if let Some(library) = library {
+            assert!(
+                built >= library,
+                "{} is older than the slurry library: rebuild it with `cargo test --workspace` \
+                 (or `cargo build -p slurry-reproduce`) before running these tests",
+                bin.display()
+            );
+        }
+        bin
+    })
+}
+
+/// Runs `slurry ARGS` in the repository's root ([`root`]) and waits.
 pub fn slurry(args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("the slurry binary runs")
+    Command::new(bin()).args(args).current_dir(root()).output().expect("the slurry binary runs")
 }
 
 /// The standard error of a finished command, as text.

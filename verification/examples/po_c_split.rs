@@ -15,7 +15,7 @@
 //! sub-steps, evaluated at mid-sub-step poses; here the instant of the frame).
 //!
 //! Why: at s = 1/4 our `Po_c` is about twice the paper's while `Po_f` is short by about as
-//! much (reproduce/README.md, "The split of the torque, not its total"). Table 1's lubrication
+//! much (reproduce/JOURNAL.md, "The split of the torque, not its total"). Table 1's lubrication
 //! acts from a gap of one lattice spacing, a third of d at s = 1/4: if it carries most of
 //! `Po_c`, the excess is the contact model standing in for flow that the grid would resolve at
 //! full scale.

@@ -1,11 +1,11 @@
 //! `cargo xtask bench`: the fused kernel's MLUPS beside this machine's memory-bandwidth ceiling
-//! (`shared/bench/membw.sh`) and the lbmpy peer (`shared/bench/lbmpy-peer.sh`), measured in the
+//! (`benches/scripts/membw.sh`) and the lbmpy peer (`benches/scripts/lbmpy-peer.sh`), measured in the
 //! same run because the machines are shared and noisy (ratios hold, absolute figures drift).
 //!
 //! Writes `target/bench/lbm.json` (ours), `target/bench/membw.json` and
 //! `target/bench/lbmpy.json` (one JSON object per line, as the scripts print them).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 /// Options: `--quick` (128³ only, fewer repetitions), `--no-peer` (skip lbmpy), and anything
@@ -28,7 +28,18 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
     println!("== slurry fused kernel (periodic box) ==");
     let status = Command::new("cargo")
         .current_dir(root)
-        .args(["run", "--release", "--quiet", "--bin", "slurry", "--", "bench", "--json"])
+        .args([
+            "run",
+            "--release",
+            "--quiet",
+            "-p",
+            "slurry-reproduce",
+            "--bin",
+            "slurry",
+            "--",
+            "bench",
+            "--json",
+        ])
         .arg(&lbm_json)
         .args(&pass)
         .status()
@@ -40,10 +51,7 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
     let ours = std::fs::read_to_string(&lbm_json).map_err(|e| format!("{}: {e}", lbm_json.display()))?;
     let ours: Vec<Row> = split_objects(&ours).iter().filter_map(|o| Row::parse(o)).collect();
 
-    let Some(bench_dir) = shared_bench(root) else {
-        println!("\n(shared/bench not found beside the repository: no ceiling or peer to compare with)");
-        return Ok(());
-    };
+    let bench_dir = root.join("benches/scripts");
     println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
     let membw = run_script(&bench_dir.join("membw.sh"), &["128", "1", "2"])?;
     std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
@@ -110,7 +118,18 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
     println!("== slurry coupled step, the paper's cases ==");
     let status = Command::new("cargo")
         .current_dir(root)
-        .args(["run", "--release", "--quiet", "--bin", "slurry", "--", "bench", "--json"])
+        .args([
+            "run",
+            "--release",
+            "--quiet",
+            "-p",
+            "slurry-reproduce",
+            "--bin",
+            "slurry",
+            "--",
+            "bench",
+            "--json",
+        ])
         .arg(&json)
         .args(&pass)
         .status()
@@ -119,12 +138,10 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
         return Err("slurry bench --coupled failed".into());
     }
     inlining_guard(root)?;
-    if let Some(bench_dir) = shared_bench(root) {
-        println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
-        let membw = run_script(&bench_dir.join("membw.sh"), &["128", "1", "2"])?;
-        std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
-        print!("{membw}");
-    }
+    println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
+    let membw = run_script(&root.join("benches/scripts/membw.sh"), &["128", "1", "2"])?;
+    std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
+    print!("{membw}");
     println!("\nfiles: {}, membw.json", json.display());
     Ok(())
 }
@@ -183,12 +200,6 @@ pub fn inlining_guard(root: &Path) -> Result<(), String> {
         blocks.len()
     );
     Ok(())
-}
-
-fn shared_bench(root: &Path) -> Option<PathBuf> {
-    [root.join("../shared/bench"), root.join("shared/bench")]
-        .into_iter()
-        .find(|p| p.join("membw.sh").exists())
 }
 
 fn run_script(script: &Path, args: &[&str]) -> Result<String, String> {

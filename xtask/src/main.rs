@@ -4,7 +4,8 @@
 //! (before the system libraries `slurry` links are even installed).
 //!
 //! - `setup`: installs the system packages the build needs (libhdf5-dev, pkg-config) if missing.
-//! - `ci`: the test command (`.ci/run`): tidy, setup, fmt, clippy, tests, verification (quick tier).
+//! - `ci`: the test command (`.ci/run`): tidy, setup, fmt, clippy, rustdoc, tests, verification
+//!   (quick tier).
 //! - `tidy`: the repository's rules as code (imports against ARCHITECTURE.md's module table,
 //!   modules and verification cases listed in the docs, file length, nothing disabled; see
 //!   `tidy.rs`).
@@ -25,7 +26,8 @@ const HELP: &str = "\
 usage: cargo xtask <command> [args]
 
 commands:
-  ci               tidy, setup, cargo fmt --check, clippy -D warnings, cargo test, verification (quick)
+  ci               tidy, setup, cargo fmt --check, clippy -D warnings, rustdoc -D warnings, cargo test,
+                   verification (quick)
   tidy             repository rules: imports against ARCHITECTURE.md's module table, modules and
                    verification cases listed in the docs, file length, no ignored tests/todo/dbg
   verify [ARGS]    setup, then `slurry-verify ARGS` (try `cargo xtask verify --help`)
@@ -123,6 +125,11 @@ fn ci(root: &Path) -> Step {
     c.current_dir(root).args(["clippy", "--workspace", "--all-targets", "--release", "--", "-D", "warnings"]);
     run("clippy", c)?;
 
+    header("cargo doc --workspace --no-deps (rustdoc warnings are errors)");
+    let mut c = cargo();
+    c.current_dir(root).env("RUSTDOCFLAGS", "-D warnings").args(["doc", "--workspace", "--no-deps"]);
+    run("doc", c)?;
+
     header("cargo test --workspace --release");
     let mut c = cargo();
     c.current_dir(root).args(["test", "--workspace", "--release"]);
@@ -156,7 +163,7 @@ fn verify(root: &Path, args: &[String]) -> Step {
 fn reproduce(root: &Path, args: &[String]) -> Step {
     let mut c = cargo();
     c.current_dir(root)
-        .args(["run", "--release", "-p", "slurry", "--bin", "slurry", "--", "reproduce"])
+        .args(["run", "--release", "-p", "slurry-reproduce", "--bin", "slurry", "--", "reproduce"])
         .args(args);
     run("reproduce", c)
 }
