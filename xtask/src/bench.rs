@@ -26,27 +26,7 @@ pub fn bench(root: &Path, args: &[String]) -> Result<(), String> {
     let lbm_json = out.join("lbm.json");
 
     println!("== slurry fused kernel (periodic box) ==");
-    let status = Command::new("cargo")
-        .current_dir(root)
-        .args([
-            "run",
-            "--release",
-            "--quiet",
-            "-p",
-            "slurry-reproduce",
-            "--bin",
-            "slurry",
-            "--",
-            "bench",
-            "--json",
-        ])
-        .arg(&lbm_json)
-        .args(&pass)
-        .status()
-        .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !status.success() {
-        return Err("slurry bench failed".into());
-    }
+    slurry_bench(root, &lbm_json, &pass).map_err(|e| format!("slurry bench failed: {e}"))?;
     inlining_guard(root)?;
     let ours = std::fs::read_to_string(&lbm_json).map_err(|e| format!("{}: {e}", lbm_json.display()))?;
     let ours: Vec<Row> = split_objects(&ours).iter().filter_map(|o| Row::parse(o)).collect();
@@ -116,6 +96,18 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
         pass.extend(["--threads".to_string(), "2".to_string()]);
     }
     println!("== slurry coupled step, the paper's cases ==");
+    slurry_bench(root, &json, &pass).map_err(|e| format!("slurry bench --coupled failed: {e}"))?;
+    inlining_guard(root)?;
+    println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
+    let membw = run_script(&root.join("benches/scripts/membw.sh"), &["128", "1", "2"])?;
+    std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
+    print!("{membw}");
+    println!("\nfiles: {}, membw.json", json.display());
+    Ok(())
+}
+
+/// `slurry bench --json JSON ARGS` in release, through cargo (which builds the binary first).
+fn slurry_bench(root: &Path, json: &Path, args: &[String]) -> Result<(), String> {
     let status = Command::new("cargo")
         .current_dir(root)
         .args([
@@ -130,20 +122,15 @@ fn coupled(root: &Path, args: &[String]) -> Result<(), String> {
             "bench",
             "--json",
         ])
-        .arg(&json)
-        .args(&pass)
+        .arg(json)
+        .args(args)
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
-    if !status.success() {
-        return Err("slurry bench --coupled failed".into());
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("exit status {status}"))
     }
-    inlining_guard(root)?;
-    println!("\n== memory-bandwidth ceiling (membw.sh 128 1 2) ==");
-    let membw = run_script(&root.join("benches/scripts/membw.sh"), &["128", "1", "2"])?;
-    std::fs::write(out.join("membw.json"), &membw).map_err(|e| e.to_string())?;
-    print!("{membw}");
-    println!("\nfiles: {}, membw.json", json.display());
-    Ok(())
 }
 
 /// Fails if the `slurry` binary calls a SIMD intrinsic out of line. That happens when a generic
