@@ -13,10 +13,14 @@
 //! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart);
 //! - [`particles`]: [`ParticleHistoryWriter`] (`particles.h5`: one frame per output step,
 //!   appended to segment files beside it, each rewritten atomically, and merged into
-//!   `particles.h5` at the end of the run).
+//!   `particles.h5` at the end of the run);
+//! - [`checksum`]: BLAKE3 hashes of what is read back to continue work (checkpoints, cached
+//!   beds, start packs), checked on read ([`checksum::Corrupt`]).
+
 
 pub mod atomic;
 pub mod checkpoint;
+pub mod checksum;
 pub mod fields;
 pub mod particles;
 pub mod timeseries;
