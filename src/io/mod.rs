@@ -15,13 +15,15 @@
 //!   appended to segment files beside it, each rewritten atomically, and merged into
 //!   `particles.h5` at the end of the run);
 //! - [`checksum`]: BLAKE3 hashes of what is read back to continue work (checkpoints, cached
-//!   beds, start packs), checked on read ([`checksum::Corrupt`]).
-
+//!   beds, start packs), checked on read ([`checksum::Corrupt`]);
+//! - [`lock`]: one writer per output directory ([`lock::claim_output_dir`]: an `flock` held
+//!   until the process ends, and the path checked before the first step).
 
 pub mod atomic;
 pub mod checkpoint;
 pub mod checksum;
 pub mod fields;
+pub mod lock;
 pub mod particles;
 pub mod timeseries;
 pub mod xdmf;
