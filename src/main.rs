@@ -535,6 +535,8 @@ fn main() -> ExitCode {
                 || e.downcast_ref::<BadInput>().is_some()
                 || e.downcast_ref::<slurry::run::BadResume>().is_some()
                 || e.downcast_ref::<slurry::run::WouldOverwrite>().is_some()
+                || e.downcast_ref::<slurry::io::lock::OutputRefused>().is_some()
+                || e.downcast_ref::<slurry::io::checksum::Corrupt>().is_some()
             {
                 ExitCode::from(EXIT_BAD_INPUT)
             } else {
@@ -590,6 +592,7 @@ fn thread_pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool, BadIn
 /// Creates the output directory `dir` (flag `--out`) if needed and checks that files can be
 /// created in it: an unusable directory is bad input (exit status 2), found before any work.
 fn usable_out_dir(dir: &std::path::Path) -> Result<(), BadInput> {
+    slurry::io::lock::check_output_path(dir, "--out").map_err(|e| BadInput(e.to_string()))?;
     std::fs::create_dir_all(dir)
         .map_err(|e| BadInput(format!("--out {}: cannot create the output directory: {e}", dir.display())))?;
     let probe = dir.join(format!(".slurry-write-test.{}", std::process::id()));
