@@ -787,11 +787,7 @@ fn restore<T: Real + hdf5::H5Type>(
         match (e.downcast_ref::<PrecisionMismatch>(), e.downcast_ref::<crate::io::checksum::Corrupt>()) {
             (Some(p), _) => BadResume(p.to_string()),
             (_, Some(c)) => BadResume(c.to_string()),
-            _ => BadResume(format!(
-                "{}: {} cannot be read as one (damaged: corrupt HDF5, or not a checkpoint)",
-                no_checkpoint(),
-                path.display()
-            )),
+            _ => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
         }
     })?;
     let switched = || relaxed.is_some_and(|c| c.same_except_contact_scheme(&checkpoint.case));

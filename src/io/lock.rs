@@ -51,8 +51,7 @@ impl OutputLock {
         match try_lock(&file) {
             Ok(()) => {}
             Err(e) if e.raw_os_error() == Some(libc::EWOULDBLOCK) => {
-                let mut holder = String::new();
-                let _ = file.read_to_string(&mut holder);
+                let holder = holder_record(&mut file);
                 let mut lines = holder.lines();
                 let who = match (lines.next().filter(|l| !l.is_empty()), lines.next()) {
                     (Some(pid), Some(cmd)) => format!("PID {pid} (`{cmd}`)"),
@@ -76,10 +75,12 @@ impl OutputLock {
         }
         let command: Vec<String> = std::env::args_os().map(|a| a.to_string_lossy().into_owned()).collect();
         let record = format!("{}\n{}\n", std::process::id(), command.join(" "));
+        // Written over the old record, then cut to its length: a reader sees this record's
+        // lines first at every moment.
         let written = file
-            .set_len(0)
-            .and_then(|()| file.rewind())
+            .rewind()
             .and_then(|()| file.write_all(record.as_bytes()))
+            .and_then(|()| file.set_len(record.len() as u64))
             .and_then(|()| file.flush());
         written.map_err(|e| {
             OutputRefused(format!("{flag} {}: cannot write {}: {e}", dir.display(), path.display()))
@@ -91,6 +92,20 @@ impl OutputLock {
     pub fn dir(&self) -> &Path {
         &self.dir
     }
+}
+
+/// The holder's record in the lock file (`PID\nCOMMAND\n`), waiting up to half a second for
+/// a holder that has just taken the lock to write it (two processes started together).
+fn holder_record(file: &mut File) -> String {
+    let mut text = String::new();
+    for _ in 0..50 {
+        text.clear();
+        if file.rewind().is_ok() && file.read_to_string(&mut text).is_ok() && text.contains('\n') {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    text
 }
 
 /// `flock(LOCK_EX | LOCK_NB)` on `file`.
