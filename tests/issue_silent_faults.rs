@@ -122,7 +122,7 @@ fn assert_refused(o: &Output, status: i32, needles: &[&str]) {
 #[test]
 fn a_second_writer_is_refused_and_a_killed_holder_releases_the_directory() {
     let tmp = tempfile::tempdir().unwrap();
-    let case = write_case(tmp.path(), "long.toml", &fluid_case(1_000_000));
+    let case = write_case(tmp.path(), "long.toml", &fluid_case(100_000));
     let other = write_case(tmp.path(), "other.toml", &fluid_case(400).replace("nu = 0.1", "nu = 0.2"));
     let out = tmp.path().join("out");
     let mut first = Command::new(BIN)
@@ -232,7 +232,7 @@ fn a_flipped_bit_in_a_cached_bed_is_settled_again() {
 fn a_resume_whose_history_falls_short_of_its_checkpoint_is_refused() {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("out");
-    let long = write_case(tmp.path(), "long.toml", &particle_case(1_000_000, 2));
+    let long = write_case(tmp.path(), "long.toml", &particle_case(20_000, 2));
     let mut child = Command::new(BIN)
         .arg("run")
         .arg(&long)
