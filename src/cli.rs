@@ -177,6 +177,8 @@ pub fn execute(command: impl FnOnce() -> anyhow::Result<()>) -> ExitCode {
                 || e.downcast_ref::<BadInput>().is_some()
                 || e.downcast_ref::<crate::run::BadResume>().is_some()
                 || e.downcast_ref::<crate::run::WouldOverwrite>().is_some()
+                || e.downcast_ref::<crate::io::lock::OutputRefused>().is_some()
+                || e.downcast_ref::<crate::io::checksum::Corrupt>().is_some()
             {
                 ExitCode::from(EXIT_BAD_INPUT)
             } else {
@@ -235,8 +237,10 @@ pub fn thread_pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool, B
 /// created in it: an unusable directory is bad input (exit status 2), found before any work.
 ///
 /// # Errors
-/// The directory cannot be created, or a file cannot be created in it.
+/// The path is not usable (`io::lock::check_output_path`: not UTF-8, a file), the directory
+/// cannot be created, or a file cannot be created in it.
 pub fn usable_out_dir(dir: &Path) -> Result<(), BadInput> {
+    crate::io::lock::check_output_path(dir, "--out").map_err(|e| BadInput(e.to_string()))?;
     std::fs::create_dir_all(dir)
         .map_err(|e| BadInput(format!("--out {}: cannot create the output directory: {e}", dir.display())))?;
     let probe = dir.join(format!(".slurry-write-test.{}", std::process::id()));

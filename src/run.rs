@@ -328,11 +328,12 @@ fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     case.check_memory().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
+    // One writer at a time (held until the process ends), on a path every file can be written
+    // under: checked before the first step.
+    crate::io::lock::claim_output_dir(out_dir, "--out")?;
     if !opts.resume && !opts.overwrite {
         check_fresh_start(out_dir, "--resume", "--overwrite")?;
     }
-    std::fs::create_dir_all(out_dir)
-        .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     // Temporary files of a write that a kill interrupted (`.checkpoint.h5.tmp.PID`, …).
     crate::io::remove_stale_temps(out_dir);
     match case.fluid.precision {
@@ -423,10 +424,6 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             Solver::Fluid(_) => (0, 0),
         };
 
-        let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
-        let case_path = out_dir.join(files::CASE);
-        atomic_write_bytes(&case_path, case_text.as_bytes())
-            .with_context(|| format!("cannot write {}", case_path.display()))?;
         let timeseries_path = out_dir.join(files::TIMESERIES);
         let checkpoint_path = out_dir.join(files::CHECKPOINT);
         let history_path = out_dir.join(files::PARTICLES_H5);
@@ -435,6 +432,9 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let (timeseries, max_mach_before) = if opts.resume {
             let relaxed = opts.switch_contacts.then_some(case);
             restore(&mut solver, &checkpoint_path, &fingerprint, relaxed, out_dir)?;
+            // Before any file is changed: the history must reach the checkpoint.
+            let particles_path = (!inits.is_empty()).then_some(history_path.as_path());
+            check_history(&timeseries_path, particles_path, solver.fluid().time(), case, opts.quiet)?;
             let timeseries =
                 TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
                     BadResume(format!(
@@ -465,6 +465,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                     .with_context(|| format!("cannot write {}", history_path.display()))?,
             )
         };
+        let case_text = toml::to_string(&case.normalised()).context("cannot serialise the case")?;
+        let case_path = out_dir.join(files::CASE);
+        atomic_write_bytes(&case_path, case_text.as_bytes())
+            .with_context(|| format!("cannot write {}", case_path.display()))?;
         let resumed_at = opts.resume.then(|| solver.fluid().time());
         Ok(Self {
             case,
@@ -729,6 +733,36 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
     }
 }
 
+/// Checks a resume's history against its checkpoint's step `step`
+/// ([`crate::io::history::check_resume_history`]): a gap is refused as [`BadResume`]; rows and
+/// frames past the step, which the resume cuts and computes again, are reported unless `quiet`.
+fn check_history(
+    timeseries: &Path,
+    particles: Option<&Path>,
+    step: u64,
+    case: &Case,
+    quiet: bool,
+) -> Result<(), BadResume> {
+    if !timeseries.is_file() {
+        // Reported by the time series' own reopening, as before.
+        return Ok(());
+    }
+    let repair = crate::io::history::check_resume_history(timeseries, particles, step, case.run.output_every)
+        .map_err(|e| BadResume(format!("cannot resume: {e}")))?;
+    if !quiet && repair.rows_after + repair.frames_after > 0 {
+        let frames = particles
+            .map(|p| format!(" and {} frame(s) of {}", repair.frames_after, p.display()))
+            .unwrap_or_default();
+        eprintln!(
+            "resume: {} row(s) of {}{frames} after the checkpoint's step {step} are cut (work after the \
+             checkpoint, computed again)",
+            repair.rows_after,
+            timeseries.display()
+        );
+    }
+    Ok(())
+}
+
 /// Restores `solver` from the checkpoint at `path`, which must have been written for the case
 /// with `fingerprint` (and, for a coupled solver, hold the bodies' states). With `relaxed`
 /// (the case, on a contact-scheme switch, [`RunOptions::switch_contacts`]) a checkpoint of the
@@ -749,9 +783,12 @@ fn restore<T: Real + hdf5::H5Type>(
     if !path.is_file() {
         return Err(BadResume(no_checkpoint()).into());
     }
-    let checkpoint = read_checkpoint::<T>(path).map_err(|e| match e.downcast_ref::<PrecisionMismatch>() {
-        Some(p) => BadResume(p.to_string()),
-        None => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
+    let checkpoint = read_checkpoint::<T>(path).map_err(|e| {
+        match (e.downcast_ref::<PrecisionMismatch>(), e.downcast_ref::<crate::io::checksum::Corrupt>()) {
+            (Some(p), _) => BadResume(p.to_string()),
+            (_, Some(c)) => BadResume(c.to_string()),
+            _ => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
+        }
     })?;
     let switched = || relaxed.is_some_and(|c| c.same_except_contact_scheme(&checkpoint.case));
     if checkpoint.case != fingerprint && !switched() {

@@ -98,7 +98,8 @@ pub struct SettleSummary {
 /// written for another case or stopping rule; an output failure.
 pub fn settle_case(case: &Case, out_dir: &Path, opts: SettleOptions) -> anyhow::Result<SettleSummary> {
     let case = settling_case(case)?;
-    std::fs::create_dir_all(out_dir).with_context(|| format!("cannot create {}", out_dir.display()))?;
+    // One writer at a time, held until the process ends.
+    crate::io::lock::claim_output_dir(out_dir, "--out")?;
     let checkpoint = out_dir.join(SETTLING_CHECKPOINT);
     let settled = in_fluid(&case, opts, Some(&checkpoint))?;
     let bed = &settled.bed;
@@ -232,8 +233,15 @@ fn resume_settling<T: Real + hdf5::H5Type>(
     path: &Path,
     fingerprint: &str,
 ) -> anyhow::Result<SettlingRecord> {
-    let cp = crate::io::read_checkpoint::<T>(path)
-        .with_context(|| format!("settle: cannot read the settling checkpoint {}", path.display()))?;
+    let cp = crate::io::read_checkpoint::<T>(path).map_err(|e| {
+        match e.downcast::<crate::io::checksum::Corrupt>() {
+            Ok(c) => anyhow::anyhow!(crate::io::checksum::Corrupt {
+                remedy: format!("remove it (and {SETTLING_RECORD}) to settle afresh"),
+                ..c
+            }),
+            Err(e) => e.context(format!("settle: cannot read the settling checkpoint {}", path.display())),
+        }
+    })?;
     if cp.case != fingerprint {
         anyhow::bail!(
             "settle: {} was written for another case or stopping rule (speed, check interval, minimum \

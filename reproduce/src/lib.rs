@@ -619,7 +619,10 @@ fn cached_bed(
         candidates.extend(others);
     }
     candidates.into_iter().find_map(|file| {
-        let rec = serde_json::from_str::<BedRecord>(&std::fs::read_to_string(&file).ok()?).ok()?;
+        let rec = slurry::io::checksum::read_cached_json::<BedRecord>(&file, "bed")?;
+        if rec.inputs != inputs && file == dir.join("bed.json") {
+            slurry::io::checksum::report_other_inputs(&file, "bed");
+        }
         (rec.inputs == inputs
             && (rec.wet || slurry::settle::admissible(key_case, &rec.bed.particles).is_ok()))
         .then_some((rec, file))
@@ -703,6 +706,8 @@ pub fn bed(
     let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b, start_from: None };
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
+    slurry::io::checksum::write_sidecar(&file)
+        .with_context(|| format!("cannot write the checksum of {}", file.display()))?;
     remove_settling_checkpoint(&dir.join(SETTLING_CHECKPOINT))?;
     if let Some(p) = pointer.filter(|p| p.exists()) {
         std::fs::remove_file(p).with_context(|| format!("cannot remove {}", p.display()))?;
@@ -834,6 +839,8 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         kind,
     })?;
     let run_dir = opts.out.join("run");
+    slurry::io::lock::claim_output_dir(&opts.out, "--out")?;
+    slurry::io::lock::check_output_path(&opts.cache, "--cache")?;
     // Before the bed and the manifest: a fresh start would replace an earlier run's files.
     if !opts.resume && !opts.overwrite {
         slurry::run::check_fresh_start(&run_dir, "--resume", "--overwrite")?;

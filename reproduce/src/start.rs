@@ -263,6 +263,7 @@ impl Source {
     /// [`WINDOW_REVOLUTIONS`] revolutions that end at its time `t` (`t N`, the ramp counting 1,
     /// as [`StartFrom::revolution`] and the report's Figure 5).
     fn open(src: &Path, what: &dyn Fn() -> String, at: Option<f64>) -> anyhow::Result<Source> {
+        slurry::io::checksum::verify_list(src, slurry::io::checksum::START_PACK_REMEDY)?;
         let manifest = manifest::Manifest::read(src).ok_or_else(|| {
             anyhow::anyhow!(
                 "{}: no readable {} (not a reproduction's output directory)",
@@ -405,6 +406,8 @@ pub fn write_start_pack(src: &Path, dest: &Path, at: Option<f64>) -> anyhow::Res
         w.append(&s.hist.frames[k]).with_context(|| format!("cannot write {}", path.display()))?;
     }
     w.finish().with_context(|| format!("cannot write {}", path.display()))?;
+    slurry::io::checksum::write_list(dest, &[manifest::FILE, "run/case.toml", "run/particles.h5"])
+        .with_context(|| format!("cannot write {}", dest.join(slurry::io::checksum::LIST_FILE).display()))?;
     Ok(StartPack {
         steps: keep.iter().map(|&(_, k)| s.hist.frames[k].step).collect(),
         phase_errors_deg: keep.iter().map(|&(e, _)| e.to_degrees()).collect(),

@@ -20,6 +20,9 @@ pub enum CaseErrorKind {
     /// The file cannot be read.
     #[error("cannot read the case file: {0}")]
     Read(std::io::Error),
+    /// Refused before it is parsed: not a regular file, or too large ([`super::input`]).
+    #[error("{0}")]
+    Refused(String),
     /// Not valid TOML.
     #[error("TOML syntax error at line {line}, column {column}: {message}")]
     Syntax {
@@ -74,7 +77,7 @@ impl CaseErrorKind {
     /// The dotted key the error is about, if any.
     pub fn key(&self) -> Option<&str> {
         match self {
-            CaseErrorKind::Read(_) | CaseErrorKind::Syntax { .. } => None,
+            CaseErrorKind::Read(_) | CaseErrorKind::Refused(_) | CaseErrorKind::Syntax { .. } => None,
             CaseErrorKind::UnknownKey { key, .. }
             | CaseErrorKind::Missing { key, .. }
             | CaseErrorKind::Invalid { key, .. } => Some(key),

@@ -20,7 +20,8 @@
 //! `M` is estimated from each particle's surface area over the squared marker spacing (plus
 //! one), and the impeller's likewise. The limit ([`available_memory`]) is `MemAvailable` of
 //! `/proc/meminfo`, lowered to the cgroup's `memory.max − memory.current` where there is
-//! one; without `/proc/meminfo`, the available physical pages (`sysconf`). The environment
+//! one; without `/proc/meminfo`, the available physical pages (`sysconf`); lowered again to the
+//! address-space limit (`ulimit -v`) less the process's present size where there is one. The environment
 //! variable `SLURRY_MEMORY_LIMIT` (bytes, or with a suffix `K`, `M`, `G`, `T`: powers of 1024)
 //! replaces it.
 
@@ -216,7 +217,7 @@ pub fn available_memory() -> Option<MemoryLimit> {
         .and_then(|t| meminfo(&t, "MemAvailable").or_else(|| meminfo(&t, "MemFree")))
         .map(|bytes| MemoryLimit { bytes, source: "MemAvailable in /proc/meminfo".into() })
         .or_else(sysconf_available);
-    match (from_meminfo, cgroup_headroom()) {
+    let physical = match (from_meminfo, cgroup_headroom()) {
         (Some(m), Some(c)) if c < m.bytes => {
             Some(MemoryLimit { bytes: c, source: "the cgroup's memory.max less memory.current".into() })
         }
@@ -225,7 +226,36 @@ pub fn available_memory() -> Option<MemoryLimit> {
             Some(MemoryLimit { bytes: c, source: "the cgroup's memory.max less memory.current".into() })
         }
         (None, None) => None,
+    };
+    match (physical, address_space_headroom()) {
+        (Some(m), Some(a)) if a >= m.bytes => Some(m),
+        (_, Some(a)) => Some(MemoryLimit {
+            bytes: a,
+            source: "the address-space limit (ulimit -v) less this process's present size".into(),
+        }),
+        (m, None) => m,
     }
+}
+
+/// The address-space limit (`ulimit -v`, `RLIMIT_AS`) less this process's present size
+/// (`VmSize` of `/proc/self/status`), if there is a limit: past it an allocation fails and the
+/// process aborts, whatever the physical memory.
+#[cfg(target_os = "linux")]
+fn address_space_headroom() -> Option<u64> {
+    let mut r = libc::rlimit { rlim_cur: 0, rlim_max: 0 };
+    // SAFETY: getrlimit writes the one struct it is given.
+    if unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } != 0 || r.rlim_cur == libc::RLIM_INFINITY {
+        return None;
+    }
+    let size =
+        std::fs::read_to_string("/proc/self/status").ok().and_then(|t| meminfo(&t, "VmSize")).unwrap_or(0);
+    Some(r.rlim_cur.saturating_sub(size))
+}
+
+/// No address-space limit is read on other platforms.
+#[cfg(not(target_os = "linux"))]
+fn address_space_headroom() -> Option<u64> {
+    None
 }
 
 /// Available physical pages times the page size (platforms without `/proc/meminfo`).

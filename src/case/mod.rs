@@ -43,6 +43,7 @@
 mod describe;
 mod errors;
 pub mod impeller;
+pub mod input;
 mod keys;
 pub mod memory;
 pub mod particles;
@@ -92,8 +93,10 @@ impl Case {
     /// Reads, parses and validates a case file.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Case, CaseError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| CaseError { file: path.to_path_buf(), kind: CaseErrorKind::Read(e) })?;
+        // Bounded: a regular file within the size limit, whose parse fits the memory.
+        let text = input::read_case_text(path)
+            .and_then(|t| input::check_parse_memory(&t).map(|()| t))
+            .map_err(|kind| CaseError { file: path.to_path_buf(), kind })?;
         Case::parse(&text, path)
     }
 

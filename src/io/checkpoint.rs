@@ -13,12 +13,21 @@
 //!
 //! The file is written to a temporary name, synced and renamed: a run killed at any moment
 //! leaves either the previous checkpoint or the new one, never a torn file.
+//!
+//! **Checksum.** The root attribute `checksum` is `blake3:HEX`, the BLAKE3 hash of everything
+//! a restore reads ([`state_checksum`]: the attributes above, then the populations, the force
+//! field and the bodies as their in-memory bytes). [`read_checkpoint`] computes it again and
+//! refuses a mismatch as [`Corrupt`]: one flipped bit in the
+//! populations would otherwise resume silently into another result. A checkpoint without the
+//! attribute (written before it existed) is read with a warning, so that a long run written
+//! by an earlier version can still be continued; its next checkpoint has one.
 
 use std::path::Path;
 
 use hdf5::types::VarLenUnicode;
 
 use super::atomic::atomic_write;
+use super::checksum::{mismatch, Corrupt};
 use super::fields::FieldsError;
 use crate::coupling::BodyState;
 use crate::lattice::{Grid, Q};
@@ -115,11 +124,16 @@ pub fn write_checkpoint<T: Real + hdf5::H5Type>(
             let d = file.new_dataset::<T>().shape([3, g.nz, g.ny, g.nx]).create("force")?;
             d.write_raw(force)?;
         }
-        if let Some(b) = bodies {
-            let flat: Vec<f64> = b.iter().flat_map(body_to_row).collect();
-            let d = file.new_dataset::<f64>().shape([b.len(), BODY_STATE_LEN]).create("bodies")?;
-            d.write_raw(&flat)?;
+        let flat: Option<Vec<f64>> = bodies.map(|b| b.iter().flat_map(body_to_row).collect());
+        if let Some(flat) = &flat {
+            let d = file
+                .new_dataset::<f64>()
+                .shape([flat.len() / BODY_STATE_LEN, BODY_STATE_LEN])
+                .create("bodies")?;
+            d.write_raw(flat)?;
         }
+        let sum = state_checksum(&case.replace('\0', " "), state, flat.as_deref());
+        file.new_attr::<VarLenUnicode>().shape(()).create("checksum")?.write_scalar(&text(&sum))?;
         file.close()?;
         Ok(())
     })
@@ -163,11 +177,73 @@ pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Ch
         }
         Err(_) => None,
     };
-    Ok(Checkpoint {
-        bodies,
-        state: FluidState { time: get("time_step")?, grid, populations, force },
-        case: file.attr("case")?.read_scalar::<VarLenUnicode>()?.to_string(),
-    })
+    let state = FluidState { time: get("time_step")?, grid, populations, force };
+    let case = file.attr("case")?.read_scalar::<VarLenUnicode>()?.to_string();
+    match file.attr("checksum") {
+        Ok(a) => {
+            let stored = a.read_scalar::<VarLenUnicode>()?.to_string();
+            let rows: Option<Vec<f64>> =
+                bodies.as_ref().map(|b: &Vec<BodyState>| b.iter().flat_map(body_to_row).collect());
+            let computed = state_checksum(&case, &state, rows.as_deref());
+            if stored != computed {
+                return Err(Corrupt {
+                    file: path.to_path_buf(),
+                    detail: mismatch(
+                        stored.trim_start_matches("blake3:"),
+                        computed.trim_start_matches("blake3:"),
+                    ),
+                    remedy: "continue from an older copy of the checkpoint if there is one, or start over \
+                             (`--overwrite`)"
+                        .to_string(),
+                }
+                .into());
+            }
+        }
+        Err(_) => eprintln!(
+            "warning: {} has no checksum (written before checkpoints had one): read as it is, unchecked; \
+             the next checkpoint has one",
+            path.display()
+        ),
+    }
+    Ok(Checkpoint { bodies, state, case })
+}
+
+/// The checksum of a checkpoint (module docs), `blake3:HEX`: the hash of the precision, the
+/// step, the grid, the case fingerprint `case`, the populations, the force field (if any) and
+/// the bodies' rows `bodies` (if any), each preceded by its length so that no two states hash
+/// alike by moving bytes between parts. Numbers are hashed as their in-memory bytes (the
+/// bytes HDF5 stores and reads back).
+pub fn state_checksum<T: Real>(case: &str, state: &FluidState<T>, bodies: Option<&[f64]>) -> String {
+    let mut h = blake3::Hasher::new();
+    let mut part = |bytes: &[u8]| {
+        h.update(&(bytes.len() as u64).to_le_bytes());
+        h.update(bytes);
+    };
+    part(b"slurry checkpoint 1");
+    part(T::NAME.as_bytes());
+    let g = state.grid;
+    for v in [state.time, g.nx as u64, g.ny as u64, g.nz as u64] {
+        part(&v.to_le_bytes());
+    }
+    part(case.as_bytes());
+    part(real_bytes(&state.populations));
+    match &state.force {
+        Some(f) => part(real_bytes(f)),
+        None => part(b"no force"),
+    }
+    match bodies {
+        Some(b) => part(real_bytes(b)),
+        None => part(b"no bodies"),
+    }
+    format!("blake3:{}", h.finalize().to_hex())
+}
+
+/// The bytes of a slice of `f32` or `f64`.
+fn real_bytes<T: Real>(v: &[T]) -> &[u8] {
+    // SAFETY: `Real` is implemented for `f32` and `f64` only: plain numbers without padding or
+    // invalid bit patterns, so every byte of the slice is initialised and readable as `u8`
+    // (alignment 1), for the slice's lifetime.
+    unsafe { std::slice::from_raw_parts(v.as_ptr().cast::<u8>(), std::mem::size_of_val(v)) }
 }
 
 #[cfg(test)]
@@ -217,5 +293,27 @@ mod tests {
         assert_eq!(back.state, state);
         assert_eq!(checkpoint_time_step(&path).unwrap(), 4, "the step, without the state");
         assert!(checkpoint_time_step(&dir.path().join("none.h5")).is_err());
+    }
+
+    /// One bit flipped in the populations after the write is found on read, as corruption.
+    #[test]
+    fn a_flipped_bit_is_refused_as_corrupt() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("checkpoint.h5");
+        let grid = Grid::new(2, 2, 2);
+        let state = FluidState::<f32> { time: 2, grid, populations: vec![0.125; Q * 8], force: None };
+        write_checkpoint(&path, &state, None, "case").unwrap();
+        assert!(read_checkpoint::<f32>(&path).is_ok());
+        {
+            let file = hdf5::File::open_rw(&path).unwrap();
+            let d = file.dataset("populations").unwrap();
+            let mut p = d.read_raw::<f32>().unwrap();
+            p[17] = f32::from_bits(p[17].to_bits() ^ 1);
+            d.write_raw(&p).unwrap();
+        }
+        let e = read_checkpoint::<f32>(&path).err().expect("refused");
+        let c = e.downcast_ref::<Corrupt>().expect("a Corrupt error");
+        assert_eq!(c.file, path);
+        assert!(e.to_string().contains("corrupt"), "{e}");
     }
 }

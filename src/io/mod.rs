@@ -13,11 +13,20 @@
 //! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart);
 //! - [`particles`]: [`ParticleHistoryWriter`] (`particles.h5`: one frame per output step,
 //!   appended to segment files beside it, each rewritten atomically, and merged into
-//!   `particles.h5` at the end of the run).
+//!   `particles.h5` at the end of the run);
+//! - [`checksum`]: BLAKE3 hashes of what is read back to continue work (checkpoints, cached
+//!   beds, start packs), checked on read ([`checksum::Corrupt`]);
+//! - [`history`]: a resume's time series and particle history checked against its
+//!   checkpoint's step (gaps refused, rows past it cut);
+//! - [`lock`]: one writer per output directory ([`lock::claim_output_dir`]: an `flock` held
+//!   until the process ends, and the path checked before the first step).
 
 pub mod atomic;
 pub mod checkpoint;
+pub mod checksum;
 pub mod fields;
+pub mod history;
+pub mod lock;
 pub mod particles;
 pub mod timeseries;
 pub mod xdmf;

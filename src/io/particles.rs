@@ -507,6 +507,21 @@ fn cut(path: &Path, keep: usize, p: usize) -> Result<(), ParticlesError> {
     })
 }
 
+/// The steps of every frame of the history at `path`, in order: `particles.h5`'s, then the
+/// segments' (those `particles.h5` already holds skipped, as the readers skip them). Reads
+/// only the `step` datasets.
+///
+/// # Errors
+/// A file cannot be read, or a segment is missing before the last (`segments`).
+pub fn history_steps(path: &Path) -> Result<Vec<u64>, ParticlesError> {
+    let mut steps = steps_of(&hdf5::File::open(path)?)?;
+    for seg in segments(&segment_dir(path))? {
+        let last = steps.last().copied();
+        steps.extend(steps_of(&hdf5::File::open(&seg)?)?.into_iter().filter(|&s| last.is_none_or(|l| s > l)));
+    }
+    Ok(steps)
+}
+
 /// Removes the segment directory of the history at `path`, if there is one.
 fn remove_segments(path: &Path) -> Result<(), ParticlesError> {
     match std::fs::remove_dir_all(segment_dir(path)) {
