@@ -24,9 +24,11 @@
 //! Obstacle nodes get the rest state (their slots are refilled before they are read).
 //!
 //! What is lost against the exact populations: the odd non-equilibrium moments beyond the
-//! momentum (third order, relaxed with `ω⁻`) and the higher-order part of the even ones,
-//! `O(Δx²)` relative to the non-equilibrium part, itself `O(Kn)` of the populations. The
-//! restart is close, not bitwise: `tests/state_pack.rs` measures it.
+//! momentum (third order, relaxed with `ω⁻`) and the higher Chapman–Enskog terms of the even
+//! ones, one order in the lattice spacing below the part that is rebuilt (which is itself
+//! first order): in a steady shear flow 4.7 % of the non-equilibrium part at 32 nodes per
+//! wavelength, 2.7 % at 64 (the unit tests). The restart is close, not bitwise:
+//! `tests/state_pack.rs` measures how close on a stirred tank with particles.
 
 use rayon::prelude::*;
 
@@ -208,33 +210,29 @@ mod tests {
             .is_err());
     }
 
-    /// In a steady periodic shear flow the rebuilt populations are the exact ones to within
-    /// the reconstruction's error: Kolmogorov flow `u_x = U sin(2π z/L)` run to steady state.
-    #[test]
-    fn steady_shear_flow_is_rebuilt() {
-        let g = Grid::new(2, 2, 32);
+    /// The largest error of the rebuilt populations relative to the largest non-equilibrium
+    /// part, in the steady Kolmogorov flow `u_x = U sin(2π z/L)` on a periodic `2 × 2 × L` box.
+    fn kolmogorov_rebuild_error(l: usize) -> f64 {
+        let g = Grid::new(2, 2, l);
         let nu = 0.1;
-        let k = std::f64::consts::TAU / 32.0;
-        let amp = 0.01;
-        let force_amp = nu * k * k * amp;
+        let k = std::f64::consts::TAU / l as f64;
+        let force_amp = nu * k * k * 0.01;
+        let fz = |z: usize| force_amp * (k * z as f64).sin();
         let mut fluid = Fluid::<f64>::new(g, FluidParams::bgk(nu), Boundaries::periodic()).unwrap();
         fluid.enable_force_field();
         for i in 0..g.nodes() {
             let [x, y, z] = g.coords(i);
-            fluid.set_force(x, y, z, [force_amp * (k * z as f64).sin(), 0.0, 0.0]);
+            fluid.set_force(x, y, z, [fz(z), 0.0, 0.0]);
         }
-        fluid.run(20_000);
+        fluid.run(20 * (1.0 / (nu * k * k)) as u64 / 2 * 2);
         let exact = fluid.snapshot().unwrap();
         let (rho, u) = fluid.fields();
         let rho32: Vec<f32> = rho.iter().map(|&v| v as f32).collect();
         let u32: Vec<[f32; 3]> = u.iter().map(|v| v.map(|c| c as f32)).collect();
-        let f32s: Vec<[f32; 3]> = (0..g.nodes())
-            .map(|i| [(force_amp * (k * g.coords(i)[2] as f64).sin()) as f32, 0.0, 0.0])
-            .collect();
+        let f32s: Vec<[f32; 3]> = (0..g.nodes()).map(|i| [fz(g.coords(i)[2]) as f32, 0.0, 0.0]).collect();
         let rebuilt = fluid
             .regularised_state(exact.time, MacroFields { rho: &rho32, velocity: &u32, force: Some(&f32s) })
             .unwrap();
-        // The non-equilibrium part against the error of the rebuilt one.
         let n = g.nodes();
         let (mut err, mut neq) = (0.0f64, 0.0f64);
         for i in 0..n {
@@ -245,7 +243,18 @@ mod tests {
                 neq = neq.max((h - eq[q]).abs());
             }
         }
-        assert!(neq > 1e-5, "a non-equilibrium part to rebuild: {neq}");
-        assert!(err < 0.02 * neq, "error {err:e} against the non-equilibrium part {neq:e}");
+        assert!(neq > 1e-6, "a non-equilibrium part to rebuild: {neq}");
+        err / neq
+    }
+
+    /// In a steady shear flow the rebuilt populations are the exact ones up to the dropped
+    /// higher Chapman–Enskog terms, first order in the lattice spacing relative to the
+    /// non-equilibrium part (second order relative to the populations' deviation from rest):
+    /// 4.7 % of it at 32 nodes per wavelength, 2.7 % at 64.
+    #[test]
+    fn steady_shear_flow_is_rebuilt() {
+        let (coarse, fine) = (kolmogorov_rebuild_error(32), kolmogorov_rebuild_error(64));
+        assert!(coarse < 0.06, "{coarse}");
+        assert!(fine < coarse / 1.6, "converging: {coarse} then {fine}");
     }
 }
