@@ -353,7 +353,17 @@ pub fn cmd_state_pack(a: StatePackArgs) -> anyhow::Result<()> {
     let step = write_run_state_pack(&a.run_dir, &pack, &label)
         .with_context(|| format!("state pack of {} failed", a.run_dir.display()))?;
     let bytes = std::fs::metadata(&pack).map(|m| m.len()).unwrap_or(0);
-    eprintln!("state pack of step {step}: {} ({:.2} MB)", pack.display(), bytes as f64 / 1e6);
+    let parts: Vec<String> = crate::io::state_pack::dataset_sizes(&pack)
+        .unwrap_or_default()
+        .iter()
+        .map(|(name, b)| format!("{name} {:.2}", *b as f64 / 1e6))
+        .collect();
+    eprintln!(
+        "state pack of step {step}: {} ({:.2} MB: {} MB)",
+        pack.display(),
+        bytes as f64 / 1e6,
+        parts.join(", ")
+    );
     Ok(())
 }
 

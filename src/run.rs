@@ -901,11 +901,13 @@ fn restore_from_pack<T: Real>(solver: &mut Solver<T>, pack: &StatePack) -> anyho
 }
 
 /// Writes a state pack of the run in `run_dir` at its checkpoint's step to `pack` (labelled
-/// `label`): the run's case (`case.toml`) set up, its checkpoint (`checkpoint.h5`) restored
-/// exactly, then [`state_pack_of`]. Returns the pack's step.
+/// `label`): the run's fluid set up from its case (`case.toml`), its checkpoint
+/// (`checkpoint.h5`) restored exactly, then [`state_pack_of`], with the checkpoint's case
+/// fingerprint (that of the case the run was started with, which `--from-pack` compares).
+/// Returns the pack's step.
 ///
 /// # Errors
-/// No case or checkpoint in `run_dir`, a checkpoint of another case, a pack that cannot be
+/// No case or checkpoint in `run_dir`, a checkpoint of another grid, a pack that cannot be
 /// written.
 pub fn write_run_state_pack(run_dir: &Path, pack: &Path, label: &str) -> anyhow::Result<u64> {
     let case_path = run_dir.join(files::CASE);
@@ -922,34 +924,15 @@ fn write_pack_typed<T: Real + hdf5::H5Type>(
     pack: &Path,
     label: &str,
 ) -> anyhow::Result<u64> {
-    let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
-    // The fluid alone suffices for the fields: the checkpoint holds the force field.
-    let mut fluid = Solver::Fluid(Box::new(drive::fluid::<T>(case)?));
     let checkpoint = run_dir.join(files::CHECKPOINT);
-    let fingerprint = case.fingerprint();
-    let bodies = if inits.is_empty() && impeller.is_none() {
-        restore(&mut fluid, &checkpoint, &fingerprint, Some(case), run_dir)?;
-        None
-    } else {
-        let c = read_checkpoint::<T>(&checkpoint)
-            .map_err(|e| BadResume(format!("{}: {e}", checkpoint.display())))?;
-        if c.case != fingerprint && !case.same_except_contact_scheme(&c.case) {
-            return Err(BadResume(format!(
-                "{} was written for another case than {}",
-                checkpoint.display(),
-                run_dir.join(files::CASE).display()
-            ))
-            .into());
-        }
-        let Solver::Fluid(f) = &mut fluid else { unreachable!("a fluid") };
-        f.restore(&c.state).context("cannot restore the checkpoint")?;
-        Some(
-            c.bodies
-                .ok_or_else(|| BadResume(format!("{} holds no particle states", checkpoint.display())))?,
-        )
-    };
-    let p = state_pack_of(fluid.fluid(), bodies, &fingerprint, label)?;
+    let c = read_checkpoint::<T>(&checkpoint)
+        .map_err(|e| BadResume(format!("{}: {e:#}", checkpoint.display())))?;
+    // The fluid alone gives the fields: the checkpoint holds the force field.
+    let mut fluid = drive::fluid::<T>(case)?;
+    fluid.restore(&c.state).with_context(|| {
+        format!("{} does not fit the case in {}", checkpoint.display(), run_dir.join(files::CASE).display())
+    })?;
+    let p = state_pack_of(&fluid, c.bodies, &c.case, label)?;
     write_state_pack(pack, &p).with_context(|| format!("cannot write {}", pack.display()))?;
     Ok(p.time_step)
 }

@@ -226,3 +226,66 @@ fn bad_packs_are_refused() {
     let e = pack.check_for(&path, pack.grid, "another case", "the other run").unwrap_err();
     assert!(e.to_string().contains("'stirred test'") && e.to_string().contains("'the other run'"), "{e}");
 }
+
+/// The commands: `slurry state-pack` of a run's checkpoint, `slurry run --from-pack` of the
+/// same case continuing from its step, and a pack of another case refused (exit status 2).
+#[test]
+fn commands_pack_and_continue() {
+    let dir = tempfile::tempdir().unwrap();
+    let with_run = |run: &str, nu: &str| {
+        case_text().replace("steps = 1\noutput_every = 1", run).replace("nu = 0.02", nu)
+    };
+    let first = common::write_case(
+        dir.path(),
+        "first.toml",
+        &with_run("steps = 40\noutput_every = 20\ncheckpoint_every = 40", "nu = 0.02"),
+    );
+    let a = dir.path().join("a");
+    let o = common::slurry(&["run", first.to_str().unwrap(), "--out", a.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let pack = dir.path().join("pack.h5");
+    let o =
+        common::slurry(&["state-pack", a.to_str().unwrap(), pack.to_str().unwrap(), "--label", "first 40"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(common::stderr(&o).contains("state pack of step 40"), "{}", common::stderr(&o));
+    common::assert_no_temp_files(dir.path());
+
+    let longer = common::write_case(
+        dir.path(),
+        "longer.toml",
+        &with_run("steps = 60\noutput_every = 20", "nu = 0.02"),
+    );
+    let b = dir.path().join("b");
+    let o = common::slurry(&[
+        "run",
+        longer.to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+        "--quiet",
+        "--from-pack",
+        pack.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let series = std::fs::read_to_string(b.join("timeseries.csv")).unwrap();
+    let steps: Vec<&str> = series.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
+    assert_eq!(steps, ["40", "60"], "the time series from the pack's step");
+
+    let other =
+        common::write_case(dir.path(), "other.toml", &with_run("steps = 60\noutput_every = 20", "nu = 0.03"));
+    let c = dir.path().join("c");
+    let o = common::slurry(&[
+        "run",
+        other.to_str().unwrap(),
+        "--out",
+        c.to_str().unwrap(),
+        "--quiet",
+        "--from-pack",
+        pack.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", common::stderr(&o));
+    let msg = common::stderr(&o);
+    assert!(
+        msg.contains("the state pack is of 'first 40'") && msg.contains("this run is 'the run in"),
+        "{msg}"
+    );
+}

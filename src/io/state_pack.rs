@@ -260,6 +260,22 @@ pub fn is_state_pack(path: &Path) -> bool {
         })
 }
 
+/// The bytes each dataset of the HDF5 file at `path` takes on disk (compressed), by name, in
+/// name order: where a pack's size goes.
+///
+/// # Errors
+/// The file cannot be opened as HDF5.
+pub fn dataset_sizes(path: &Path) -> Result<Vec<(String, u64)>, FieldsError> {
+    let file = hdf5::File::open(path)?;
+    let mut out = Vec::new();
+    for name in file.member_names()? {
+        if let Ok(d) = file.dataset(&name) {
+            out.push((name, d.storage_size()));
+        }
+    }
+    Ok(out)
+}
+
 /// Reads a state pack written by [`write_state_pack`], checking its version, its shapes and
 /// its checksum.
 ///
