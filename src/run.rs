@@ -339,7 +339,8 @@ pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result
 /// Runs `case` as [`run_case`] does, but starting from the state pack at `pack` (written for
 /// this case and grid, [`StatePack::check_for`]) instead of the case's initial state: the
 /// fluid rebuilt by [`pack_fluid_state`], the bodies restored exactly, the time series and
-/// particle history starting at the pack's step. Not with `opts.resume` (a run started from a
+/// particle history starting at the first output step after the pack's (the pack holds no
+/// loads of the step before its own, so the row of its step would read zero torques). Not with `opts.resume` (a run started from a
 /// pack is continued from its own checkpoints).
 ///
 /// # Errors
@@ -433,6 +434,10 @@ struct Session<'a, T: Real> {
     max_mach_before: f64,
     /// The checkpoint's step when this session resumed.
     resumed_at: Option<u64>,
+    /// The state pack's step when this session started from one: its row and particle frame
+    /// are not written (the pack holds no loads of the step before, so its torques and forces
+    /// would read zero).
+    pack_step: Option<u64>,
 }
 
 /// What the stepping loop measured, for the summary.
@@ -464,8 +469,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         if let Some(pack) = pack {
             let p = read_state_pack(pack).map_err(|e| BadResume(e.to_string()))?;
             let run = format!("the run in {}", out_dir.display());
-            p.check_for(pack, case.grid(), &case.fingerprint(), &run)
-                .map_err(|e| BadResume(e.to_string()))?;
+            // The pack's own fingerprint where the case is the same up to normalisation (the
+            // run's `case.toml` continues the run it was written by).
+            let fingerprint = if pack_is_of_case(&p, case) { p.case.clone() } else { case.fingerprint() };
+            p.check_for(pack, case.grid(), &fingerprint, &run).map_err(|e| BadResume(e.to_string()))?;
             restore_from_pack(&mut solver, &p)
                 .with_context(|| format!("cannot start from {}", pack.display()))?;
         }
@@ -520,6 +527,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             )
         };
         let resumed_at = opts.resume.then(|| solver.fluid().time());
+        let pack_step = pack.map(|_| solver.fluid().time());
         Ok(Self {
             case,
             out_dir,
@@ -536,6 +544,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             checkpoint_path,
             max_mach_before,
             resumed_at,
+            pack_step,
         })
     }
 
@@ -591,8 +600,9 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 if step == first_step && stepped.initial_mass.is_nan() {
                     stepped.initial_mass = fluid.total_mass();
                 }
-                // The row of the step a resume starts from is already in the time series.
-                if output_due && self.resumed_at != Some(step) {
+                // The row of the step a resume starts from is already in the time series; that
+                // of a state pack's step would lack the loads of the step before.
+                if output_due && self.resumed_at != Some(step) && self.pack_step != Some(step) {
                     status = self.write_output_row(step, health.max_mach, block_mlups)?;
                     stepped.rows += 1;
                 }
@@ -866,6 +876,15 @@ pub fn state_pack_of<T: Real>(
         case: case.to_string(),
         label: label.to_string(),
     })
+}
+
+/// Whether `pack` was written for `case`: the same fingerprint, or the same case once both are
+/// normalised (the run's `case.toml`, which is normalised, names the case that the run's
+/// checkpoint, and so its pack, was written for).
+pub fn pack_is_of_case(pack: &StatePack, case: &Case) -> bool {
+    pack.case == case.fingerprint()
+        || toml::from_str::<Case>(&pack.case)
+            .is_ok_and(|c| c.normalised().fingerprint() == case.normalised().fingerprint())
 }
 
 /// The fluid state that `pack` stands for, on `fluid`'s grid and parameters: the regularised

@@ -154,6 +154,15 @@ pub fn start_bed(
     resume: bool,
 ) -> anyhow::Result<BedRecord> {
     let file = out.join(START_FILE);
+    if slurry::io::is_state_pack(src) {
+        anyhow::bail!(
+            "--start-from {}: a state pack (`slurry state-pack`) is a run's whole state, not a \
+             reproduction's particles; continue it with `slurry run RUN/case.toml --from-pack {} \
+             --out DIR`, RUN the packed run's directory",
+            src.display(),
+            src.display()
+        );
+    }
     if resume {
         let rec = read_start_record(out)?.with_context(|| {
             format!(
