@@ -340,8 +340,8 @@ pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result
 /// this case and grid, [`StatePack::check_for`]) instead of the case's initial state: the
 /// fluid rebuilt by [`pack_fluid_state`], the bodies restored exactly, the time series and
 /// particle history starting at the first output step after the pack's (the pack holds no
-/// loads of the step before its own, so the row of its step would read zero torques). Not with `opts.resume` (a run started from a
-/// pack is continued from its own checkpoints).
+/// loads of the step before its own, so the row of its step would read zero torques). Not
+/// with `opts.resume` (a run started from a pack is continued from its own checkpoints).
 ///
 /// # Errors
 /// As [`run_case`]; a pack that cannot be read or is of another case or grid ([`BadResume`]).
