@@ -558,6 +558,32 @@ mod tests {
         assert_eq!(angle("disk-ld2"), None);
     }
 
+    /// A state pack is a run's whole state, not particles to start from: refused, naming the
+    /// command that continues it.
+    #[test]
+    fn a_state_pack_is_refused_with_the_command_that_continues_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let pack_path = dir.path().join("pack.h5");
+        let scaled =
+            super::super::scale_case(&super::super::paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25)
+                .unwrap();
+        let grid = scaled.grid();
+        let n = grid.nodes();
+        let pack = slurry::io::StatePack {
+            time_step: 2,
+            grid,
+            rho: vec![1.0; n],
+            velocity: vec![[0.0; 3]; n],
+            force: None,
+            bodies: None,
+            case: scaled.fingerprint(),
+            label: "test".into(),
+        };
+        slurry::io::write_state_pack(&pack_path, &pack).unwrap();
+        let e = start_bed("pbt-ld2", &scaled, &pack_path, dir.path(), false).unwrap_err().to_string();
+        assert!(e.contains("a state pack") && e.contains("--from-pack"), "{e}");
+    }
+
     #[test]
     fn positions_map_wall_onto_wall() {
         // 63 × 63 × 60 (s = 1/4) onto 84 × 84 × 80 (s = 1/3): the walls at −½ and n − ½.
