@@ -29,6 +29,12 @@
 //! angle, speed, torques and power numbers ([`ImpellerTorques`]). Without particles the run
 //! is single-phase with the impeller alone.
 //!
+//! **State packs.** [`state_pack_of`] takes a compact state of a fluid (and its bodies) at an
+//! even step ([`crate::io::state_pack`]), [`write_run_state_pack`] one of a run directory's
+//! checkpoint (`slurry state-pack`); [`run_case_from_pack`] starts a run from one, its
+//! populations rebuilt by the regularised reconstruction ([`pack_fluid_state`]) and its
+//! bodies restored exactly: a continuation close to the run's own, not bitwise.
+//!
 //! Numerical trouble (non-finite populations, non-positive density, Mach number above
 //! `run.mach_limit`) stops the run with a [`NumericalError`] carrying the solver's diagnosis;
 //! the time series up to the last healthy output is kept.
@@ -42,17 +48,18 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, ImpellerSetup, Precision};
-use crate::coupling::{Coupled, CoupledState, CouplingError};
+use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
 use crate::drive::{self, particle_frame, particle_statics};
 use crate::interrupt;
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
-    atomic_write_bytes, read_checkpoint, write_checkpoint, write_fields_h5, write_xdmf, ParticleAggregates,
-    ParticleFrame, ParticleHistoryWriter, TimeSeriesRow, TimeSeriesWriter,
+    atomic_write_bytes, read_checkpoint, read_state_pack, write_checkpoint, write_fields_h5,
+    write_state_pack, write_xdmf, ParticleAggregates, ParticleFrame, ParticleHistoryWriter, StatePack,
+    TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
-use crate::lbm::{Fluid, Health, Real};
+use crate::lbm::{Fluid, FluidState, Health, MacroFields, Real};
 
 /// File names written into the output directory.
 pub mod files {
@@ -326,6 +333,40 @@ fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup
 /// an earlier run is refused unless `opts.resume` (continue it) or `opts.overwrite` (replace
 /// its files): [`check_fresh_start`]. Uses the current rayon thread pool.
 pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result<RunSummary> {
+    run_case_with(case, out_dir, opts, None)
+}
+
+/// Runs `case` as [`run_case`] does, but starting from the state pack at `pack` (written for
+/// this case and grid, [`StatePack::check_for`]) instead of the case's initial state: the
+/// fluid rebuilt by [`pack_fluid_state`], the bodies restored exactly, the time series and
+/// particle history starting at the first output step after the pack's (the pack holds no
+/// loads of the step before its own, so the row of its step would read zero torques). Not
+/// with `opts.resume` (a run started from a pack is continued from its own checkpoints).
+///
+/// # Errors
+/// As [`run_case`]; a pack that cannot be read or is of another case or grid ([`BadResume`]).
+pub fn run_case_from_pack(
+    case: &Case,
+    out_dir: &Path,
+    opts: RunOptions,
+    pack: &Path,
+) -> anyhow::Result<RunSummary> {
+    if opts.resume {
+        return Err(BadResume(
+            "a start from a state pack begins a run; --resume continues one from its own checkpoint".into(),
+        )
+        .into());
+    }
+    run_case_with(case, out_dir, opts, Some(pack))
+}
+
+/// [`run_case`], from the state pack `pack` when given.
+fn run_case_with(
+    case: &Case,
+    out_dir: &Path,
+    opts: RunOptions,
+    pack: Option<&Path>,
+) -> anyhow::Result<RunSummary> {
     case.validate_settings().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     case.check_memory().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
     // One writer at a time (held until the process ends), on a path every file can be written
@@ -337,8 +378,8 @@ pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result
     // Temporary files of a write that a kill interrupted (`.checkpoint.h5.tmp.PID`, …).
     crate::io::remove_stale_temps(out_dir);
     match case.fluid.precision {
-        Precision::F32 => run_typed::<f32>(case, out_dir, opts),
-        Precision::F64 => run_typed::<f64>(case, out_dir, opts),
+        Precision::F32 => run_typed::<f32>(case, out_dir, opts, pack),
+        Precision::F64 => run_typed::<f64>(case, out_dir, opts, pack),
     }
 }
 
@@ -363,9 +404,10 @@ fn run_typed<T: Real + hdf5::H5Type>(
     case: &Case,
     out_dir: &Path,
     opts: RunOptions,
+    pack: Option<&Path>,
 ) -> anyhow::Result<RunSummary> {
     let start = Instant::now();
-    let mut session = Session::<T>::start(case, out_dir, opts)?;
+    let mut session = Session::<T>::start(case, out_dir, opts, pack)?;
     let armed = interrupt::arm();
     let stepped = session.step_to_end(opts.quiet, start)?;
     drop(armed);
@@ -393,6 +435,10 @@ struct Session<'a, T: Real> {
     max_mach_before: f64,
     /// The checkpoint's step when this session resumed.
     resumed_at: Option<u64>,
+    /// The state pack's step when this session started from one: its row and particle frame
+    /// are not written (the pack holds no loads of the step before, so its torques and forces
+    /// would read zero).
+    pack_step: Option<u64>,
 }
 
 /// What the stepping loop measured, for the summary.
@@ -407,7 +453,12 @@ struct Stepped {
 impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
     /// The solver at step 0 or restored from the checkpoint, `case.toml` written, the time
     /// series and the particle history created or cut back to the checkpoint's step.
-    fn start(case: &'a Case, out_dir: &'a Path, opts: RunOptions) -> anyhow::Result<Self> {
+    fn start(
+        case: &'a Case,
+        out_dir: &'a Path,
+        opts: RunOptions,
+        pack: Option<&Path>,
+    ) -> anyhow::Result<Self> {
         let inits = case.particle_inits().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
         let impeller = case.impeller_setup().map_err(|kind| anyhow::anyhow!("invalid case: {kind}"))?;
         let particles = inits.len();
@@ -416,6 +467,16 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         } else {
             Solver::Coupled(Box::new(drive::coupled(case, &inits, impeller.as_ref())?))
         };
+        if let Some(pack) = pack {
+            let p = read_state_pack(pack).map_err(|e| BadResume(e.to_string()))?;
+            let run = format!("the run in {}", out_dir.display());
+            // The pack's own fingerprint where the case is the same up to normalisation (the
+            // run's `case.toml` continues the run it was written by).
+            let fingerprint = if pack_is_of_case(&p, case) { p.case.clone() } else { case.fingerprint() };
+            p.check_for(pack, case.grid(), &fingerprint, &run).map_err(|e| BadResume(e.to_string()))?;
+            restore_from_pack(&mut solver, &p)
+                .with_context(|| format!("cannot start from {}", pack.display()))?;
+        }
         let (markers, impeller_markers) = match &solver {
             Solver::Coupled(c) => {
                 let impeller_count = if impeller.is_some() { c.body_marker_count(particles) } else { 0 };
@@ -470,6 +531,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         atomic_write_bytes(&case_path, case_text.as_bytes())
             .with_context(|| format!("cannot write {}", case_path.display()))?;
         let resumed_at = opts.resume.then(|| solver.fluid().time());
+        let pack_step = pack.map(|_| solver.fluid().time());
         Ok(Self {
             case,
             out_dir,
@@ -486,6 +548,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             checkpoint_path,
             max_mach_before,
             resumed_at,
+            pack_step,
         })
     }
 
@@ -537,11 +600,13 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 if output_due {
                     stepped.max_mach = stepped.max_mach.max(health.max_mach);
                 }
-                if step == 0 || (self.resumed_at == Some(step) && stepped.initial_mass.is_nan()) {
+                // Step 0, the step a resume continues from, or a state pack's step.
+                if step == first_step && stepped.initial_mass.is_nan() {
                     stepped.initial_mass = fluid.total_mass();
                 }
-                // The row of the step a resume starts from is already in the time series.
-                if output_due && self.resumed_at != Some(step) {
+                // The row of the step a resume starts from is already in the time series; that
+                // of a state pack's step would lack the loads of the step before.
+                if output_due && self.resumed_at != Some(step) && self.pack_step != Some(step) {
                     status = self.write_output_row(step, health.max_mach, block_mlups)?;
                     stepped.rows += 1;
                 }
@@ -816,4 +881,114 @@ fn restore<T: Real + hdf5::H5Type>(
         }
     }
     Ok(())
+}
+
+/// A state pack of `fluid` at its present (even) step, with `bodies`' states (exact), the
+/// case fingerprint `case` and the label `label`: density and velocity as
+/// [`Fluid::fields`] gives them and the force field of the last step, each rounded to `f32`.
+///
+/// # Errors
+/// An odd step.
+pub fn state_pack_of<T: Real>(
+    fluid: &Fluid<T>,
+    bodies: Option<Vec<BodyState>>,
+    case: &str,
+    label: &str,
+) -> anyhow::Result<StatePack> {
+    let state = fluid.snapshot().context("a state pack at an odd step")?;
+    let (rho, u) = fluid.fields();
+    let n = state.grid.nodes();
+    let force = state.force.as_ref().map(|f| {
+        (0..n)
+            .map(|i| [f[i].to_f64() as f32, f[n + i].to_f64() as f32, f[2 * n + i].to_f64() as f32])
+            .collect()
+    });
+    Ok(StatePack {
+        time_step: state.time,
+        grid: state.grid,
+        rho: rho.iter().map(|&r| r as f32).collect(),
+        velocity: u.iter().map(|v| v.map(|c| c as f32)).collect(),
+        force,
+        bodies,
+        case: case.to_string(),
+        label: label.to_string(),
+    })
+}
+
+/// Whether `pack` was written for `case`: the same fingerprint, or the same case once both are
+/// normalised (the run's `case.toml`, which is normalised, names the case that the run's
+/// checkpoint, and so its pack, was written for).
+pub fn pack_is_of_case(pack: &StatePack, case: &Case) -> bool {
+    pack.case == case.fingerprint()
+        || toml::from_str::<Case>(&pack.case)
+            .is_ok_and(|c| c.normalised().fingerprint() == case.normalised().fingerprint())
+}
+
+/// The fluid state that `pack` stands for, on `fluid`'s grid and parameters: the regularised
+/// reconstruction ([`Fluid::regularised_state`]) of its density, velocity and force field.
+///
+/// # Errors
+/// A pack of another grid.
+pub fn pack_fluid_state<T: Real>(fluid: &Fluid<T>, pack: &StatePack) -> anyhow::Result<FluidState<T>> {
+    let fields = MacroFields { rho: &pack.rho, velocity: &pack.velocity, force: pack.force.as_deref() };
+    fluid.regularised_state(pack.time_step, fields).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// Restores `c` from `pack`: the fluid rebuilt ([`pack_fluid_state`]), every body's state
+/// exactly ([`Coupled::restore`]).
+///
+/// # Errors
+/// A pack of another grid, without bodies, or with another number of them.
+pub fn restore_coupled_from_pack<T: Real>(c: &mut Coupled<T>, pack: &StatePack) -> anyhow::Result<()> {
+    let fluid = pack_fluid_state(c.fluid(), pack)?;
+    let bodies = pack.bodies.clone().ok_or_else(|| BadResume("the state pack holds no bodies".into()))?;
+    c.restore(&CoupledState { fluid, bodies }).map_err(|e| anyhow::anyhow!("{e}"))
+}
+
+/// Restores `solver` from `pack`.
+fn restore_from_pack<T: Real>(solver: &mut Solver<T>, pack: &StatePack) -> anyhow::Result<()> {
+    match solver {
+        Solver::Fluid(f) => {
+            let state = pack_fluid_state(f, pack)?;
+            f.restore(&state).map_err(|e| anyhow::anyhow!("{e}"))
+        }
+        Solver::Coupled(c) => restore_coupled_from_pack(c, pack),
+    }
+}
+
+/// Writes a state pack of the run in `run_dir` at its checkpoint's step to `pack` (labelled
+/// `label`): the run's fluid set up from its case (`case.toml`), its checkpoint
+/// (`checkpoint.h5`) restored exactly, then [`state_pack_of`], with the checkpoint's case
+/// fingerprint (that of the case the run was started with, which `--from-pack` compares).
+/// Returns the pack's step.
+///
+/// # Errors
+/// No case or checkpoint in `run_dir`, a checkpoint of another grid, a pack that cannot be
+/// written.
+pub fn write_run_state_pack(run_dir: &Path, pack: &Path, label: &str) -> anyhow::Result<u64> {
+    let case_path = run_dir.join(files::CASE);
+    let case = Case::from_file(&case_path)?;
+    match case.fluid.precision {
+        Precision::F32 => write_pack_typed::<f32>(&case, run_dir, pack, label),
+        Precision::F64 => write_pack_typed::<f64>(&case, run_dir, pack, label),
+    }
+}
+
+fn write_pack_typed<T: Real + hdf5::H5Type>(
+    case: &Case,
+    run_dir: &Path,
+    pack: &Path,
+    label: &str,
+) -> anyhow::Result<u64> {
+    let checkpoint = run_dir.join(files::CHECKPOINT);
+    let c = read_checkpoint::<T>(&checkpoint)
+        .map_err(|e| BadResume(format!("{}: {e:#}", checkpoint.display())))?;
+    // The fluid alone gives the fields: the checkpoint holds the force field.
+    let mut fluid = drive::fluid::<T>(case)?;
+    fluid.restore(&c.state).with_context(|| {
+        format!("{} does not fit the case in {}", checkpoint.display(), run_dir.join(files::CASE).display())
+    })?;
+    let p = state_pack_of(&fluid, c.bodies, &c.case, label)?;
+    write_state_pack(pack, &p).with_context(|| format!("cannot write {}", pack.display()))?;
+    Ok(p.time_step)
 }

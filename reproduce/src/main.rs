@@ -57,6 +57,10 @@ enum Command {
     /// its archive), so that `--start-from PACK` works after the output directory is gone
     /// (`--at T`: of the 20 revolutions ending at its time T instead, an earlier state).
     StartPack(paper::StartPackArgs),
+    /// A run's state at its checkpoint as a state pack: density and velocity (f32, compressed)
+    /// with every body's exact state, checksummed, a few MB; `run --from-pack` continues from
+    /// it (close to the run's own continuation, not bitwise).
+    StatePack(solver::StatePackArgs),
 }
 
 fn main() -> ExitCode {
@@ -70,5 +74,6 @@ fn main() -> ExitCode {
         Command::Resolution(a) => paper::cmd_resolution(a),
         Command::Status(a) => paper::cmd_status(a),
         Command::StartPack(a) => paper::cmd_start_pack(a),
+        Command::StatePack(a) => solver::cmd_state_pack(a),
     })
 }

@@ -154,6 +154,15 @@ pub fn start_bed(
     resume: bool,
 ) -> anyhow::Result<BedRecord> {
     let file = out.join(START_FILE);
+    if slurry::io::is_state_pack(src) {
+        anyhow::bail!(
+            "--start-from {}: a state pack (`slurry state-pack`) is a run's whole state, not a \
+             reproduction's particles; continue it with `slurry run RUN/case.toml --from-pack {} \
+             --out DIR`, RUN the packed run's directory",
+            src.display(),
+            src.display()
+        );
+    }
     if resume {
         let rec = read_start_record(out)?.with_context(|| {
             format!(
@@ -550,6 +559,32 @@ mod tests {
         };
         assert_eq!(angle("pbt-ld2"), Some(TAU / 4.0));
         assert_eq!(angle("disk-ld2"), None);
+    }
+
+    /// A state pack is a run's whole state, not particles to start from: refused, naming the
+    /// command that continues it.
+    #[test]
+    fn a_state_pack_is_refused_with_the_command_that_continues_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let pack_path = dir.path().join("pack.h5");
+        let scaled =
+            super::super::scale_case(&super::super::paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25)
+                .unwrap();
+        let grid = scaled.grid();
+        let n = grid.nodes();
+        let pack = slurry::io::StatePack {
+            time_step: 2,
+            grid,
+            rho: vec![1.0; n],
+            velocity: vec![[0.0; 3]; n],
+            force: None,
+            bodies: None,
+            case: scaled.fingerprint(),
+            label: "test".into(),
+        };
+        slurry::io::write_state_pack(&pack_path, &pack).unwrap();
+        let e = start_bed("pbt-ld2", &scaled, &pack_path, dir.path(), false).unwrap_err().to_string();
+        assert!(e.contains("a state pack") && e.contains("--from-pack"), "{e}");
     }
 
     #[test]

@@ -11,6 +11,9 @@
 //! - [`xdmf`]: [`write_xdmf`] (XDMF 3 for ParaView, referencing the HDF5 datasets);
 //! - [`timeseries`]: [`TimeSeriesWriter`], [`TimeSeriesRow`];
 //! - [`checkpoint`]: [`write_checkpoint`], [`read_checkpoint`] (bitwise restart);
+//! - [`state_pack`]: [`write_state_pack`], [`read_state_pack`] (a compact state, density and
+//!   velocity in `f32` with the bodies' exact states, compressed and checksummed: a restart
+//!   that is close, not bitwise);
 //! - [`particles`]: [`ParticleHistoryWriter`] (`particles.h5`: one frame per output step,
 //!   appended to segment files beside it, each rewritten atomically, and merged into
 //!   `particles.h5` at the end of the run);
@@ -28,6 +31,7 @@ pub mod fields;
 pub mod history;
 pub mod lock;
 pub mod particles;
+pub mod state_pack;
 pub mod timeseries;
 pub mod xdmf;
 
@@ -41,5 +45,6 @@ pub use particles::{
     read_particle_history, read_particle_history_from, ParticleFrame, ParticleHistory, ParticleHistoryWriter,
     ParticleProperties, ParticleStatic, ParticlesError,
 };
+pub use state_pack::{is_state_pack, read_state_pack, write_state_pack, StatePack, StatePackError};
 pub use timeseries::{ParticleAggregates, TimeSeriesRow, TimeSeriesWriter};
 pub use xdmf::{write_xdmf, xdmf_text};

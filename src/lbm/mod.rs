@@ -9,6 +9,8 @@
 //! - [`fluid`]: the solver state and its time step, macroscopic fields, conservation sums.
 //! - [`reference`](mod@reference): a plain two-lattice kernel kept as the oracle for the fused one.
 //! - [`health`]: non-finite values and Mach number.
+//! - [`regularise`]: populations rebuilt from density, velocity and force (the restart from a
+//!   state pack).
 
 pub mod boundary;
 pub mod collision;
@@ -18,6 +20,7 @@ pub mod kernel;
 pub mod params;
 pub mod real;
 pub mod reference;
+pub mod regularise;
 pub mod simd;
 
 pub use boundary::{Boundaries, FaceBoundary};
@@ -27,6 +30,7 @@ pub use kernel::Isa;
 pub use params::{Collision, FluidParams};
 pub use real::Real;
 pub use reference::ReferenceFluid;
+pub use regularise::MacroFields;
 
 use crate::lattice::{Face, Grid};
 

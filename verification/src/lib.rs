@@ -36,7 +36,10 @@
 //! - [`cases::wet_lubrication`]: a sphere settling onto a fixed sphere in fluid: it slows before
 //!   contact, never overlaps and comes to rest on the contact;
 //! - [`cases::impeller`]: impellers' marker areas and normals; the single-phase torque budget,
-//!   power number and pumping direction at Re = 87.
+//!   power number and pumping direction at Re = 87;
+//! - [`cases::state_pack`]: a restart from a state pack (density, velocity, force field, exact
+//!   bodies) against the exact restart on a small stirred tank with particles: velocity field and
+//!   bodies after 100 steps.
 
 pub mod cases;
 pub mod fit;

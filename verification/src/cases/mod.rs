@@ -9,6 +9,7 @@ pub mod impeller;
 pub mod mass_conservation;
 pub mod poiseuille;
 pub mod quaternion_norm;
+pub mod state_pack;
 pub mod stokes_drag;
 pub mod taylor_green;
 pub mod ten_cate;
@@ -91,6 +92,12 @@ pub fn all() -> Vec<Case> {
             summary:
                 "sphere settling in a closed box (ten Cate et al. 2002, E1-E4): peak velocity vs measured",
             run: ten_cate::run,
+        },
+        Case {
+            name: "state_pack",
+            summary:
+                "restart from a state pack vs the exact restart: velocity and bodies after 100 steps (stirred tank)",
+            run: state_pack::run,
         },
         Case {
             name: "impeller",
