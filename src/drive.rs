@@ -1,5 +1,5 @@
 //! What the drivers share (`run`, `settle`, and through them `reproduce`): the solver built
-//! from a [`Case`] (`fluid`, `coupled`) and the particle output of `particles.h5`
+//! from a [`Case`] ([`fluid`], [`coupled`]) and the particle output of `particles.h5`
 //! (`particle_frame`, `particle_statics`). A driver builds and writes through these, so
 //! that a bed settled by `settle` and a stirred run of `run` start from the same set-up and
 //! write the same layout; no driver imports another for them.
@@ -16,7 +16,7 @@ use crate::rigid::Vec3;
 ///
 /// # Errors
 /// The fluid's parameters are rejected (the case's validation should have caught it).
-pub(crate) fn fluid<T: Real>(case: &Case) -> anyhow::Result<Fluid<T>> {
+pub fn fluid<T: Real>(case: &Case) -> anyhow::Result<Fluid<T>> {
     let mut fluid = Fluid::<T>::new(case.grid(), case.fluid_params(), case.boundaries())
         .context("cannot set up the fluid")?;
     fluid.initialize(|x, y, z| case.initial_state(x, y, z));
@@ -27,7 +27,7 @@ pub(crate) fn fluid<T: Real>(case: &Case) -> anyhow::Result<Fluid<T>> {
 ///
 /// # Errors
 /// The fluid cannot be set up, or the coupling rejects a body (e.g. one that does not fit).
-pub(crate) fn coupled<T: Real>(
+pub fn coupled<T: Real>(
     case: &Case,
     inits: &[ParticleInit],
     impeller: Option<&ImpellerSetup>,

@@ -11,62 +11,26 @@
 //! applied serially in pair order): 2 contact sub-steps × 4 lubrication sub-steps, one thread
 //! against two.
 
-use slurry::case::{Case, ImpellerSetup};
+use slurry::case::Case;
 use slurry::coupling::Coupled;
-use slurry::lbm::Fluid;
 
 mod common;
 
-use common::case_toml;
-
-/// A closed 36³ box, f32 BGK, with contacts (`contacts`: the lines of the `[contacts]`
-/// table), a pitched-blade turbine and 26 cylinders.
-fn case_text(contacts: &str) -> String {
-    let closed_box = case_toml(
-        [36, 36, 36],
-        "precision = \"f32\"\nnu = 0.02\ncollision = \"bgk\"",
-        "",
-        "steps = 1\noutput_every = 1",
-    );
-    format!(
-        r#"
-gravity = [0.0, 0.0, -2e-4]
-{closed_box}
-[contacts]
-{contacts}
-
-[impeller]
-kind = "pbt"
-diameter = 18.0
-speed = 2.5e-3
-ramp_steps = 20
-centre = [17.5, 17.5, 20.0]
-blade_thickness = 0.75
-
-[[random_particles]]
-shape = "cylinder"
-diameter = 4.0
-length = 6.0
-density = 1.25
-count = 26
-seed = 7
-region = [[0.5, 0.5, 0.5], [34.5, 34.5, 12.0]]
-clearance = 0.5
-"#
-    )
-}
+use common::stirred_tank;
 
 /// Bits of everything the step produces after `steps` steps with `threads` workers, and the
 /// number of bodies with a non-zero contact force at the end.
 fn run(threads: usize, steps: u64, contacts: &str) -> (Vec<u32>, Vec<u64>, usize) {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
     pool.install(|| {
-        let case = Case::parse(&case_text(contacts), "determinism.toml").expect("valid case");
-        let mut fluid = Fluid::<f32>::new(case.grid(), case.fluid_params(), case.boundaries()).unwrap();
-        fluid.initialize(|x, y, z| case.initial_state(x, y, z));
-        let mut bodies: Vec<_> = case.particle_inits().unwrap().iter().map(|p| p.body()).collect();
-        bodies.extend(case.impeller_setup().unwrap().as_ref().map(ImpellerSetup::body));
-        let mut c = Coupled::new(fluid, bodies, case.coupling_params()).unwrap();
+        let text = stirred_tank("steps = 1\noutput_every = 1", contacts);
+        let case = Case::parse(&text, "determinism.toml").expect("valid case");
+        let mut c: Coupled<f32> = slurry::drive::coupled(
+            &case,
+            &case.particle_inits().unwrap(),
+            case.impeller_setup().unwrap().as_ref(),
+        )
+        .unwrap();
         // On a worker of the pool, as `slurry run` steps.
         rayon::scope(|_| c.run(steps)).unwrap();
         let pops: Vec<u32> = c.fluid().snapshot().unwrap().populations.iter().map(|v| v.to_bits()).collect();

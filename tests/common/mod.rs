@@ -127,3 +127,13 @@ pub fn write_case(dir: &Path, name: &str, text: &str) -> PathBuf {
     std::fs::write(&path, text).unwrap();
     path
 }
+
+/// The small stirred tank of `examples/stirred_tank_particles.toml` (a PBT above 26 free
+/// cylinders with contacts in a closed 36³ box), with the lines `run` as its `[run]` table and
+/// the lines `contacts` added to its `[contacts]` table.
+pub fn stirred_tank(run: &str, contacts: &str) -> String {
+    let text = std::fs::read_to_string(root().join("examples/stirred_tank_particles.toml"))
+        .expect("examples/stirred_tank_particles.toml");
+    let text = text.replacen("steps = 400\noutput_every = 50\n", &format!("{}\n", run.trim()), 1);
+    text.replacen("[contacts]\n", &format!("[contacts]\n{}\n", contacts.trim()), 1)
+}

@@ -138,7 +138,7 @@ fn ci(root: &Path) -> Step {
     // The reduced regression's values against the paper, with the archived steady runs'
     // (issue: "print each value against Table 2 ... with the deviation"; nothing asserted).
     if let Ok(md) = std::fs::read_to_string(root.join("target/ci/pbt-ld2-against-the-paper.md")) {
-        header("pbt-ld2 against the paper (tests/reproduce_regression.rs)");
+        header("pbt-ld2 against the paper (reproduce/tests/reproduce_regression.rs)");
         print!("{md}");
     }
 

@@ -27,10 +27,9 @@
 
 use std::time::Instant;
 
-use slurry::case::{Case as CaseFile, ImpellerSetup};
+use slurry::case::Case as CaseFile;
 use slurry::coupling::Coupled;
 use slurry::io::{read_state_pack, write_state_pack};
-use slurry::lbm::Fluid;
 use slurry::run::{restore_coupled_from_pack, state_pack_of};
 
 use crate::{CaseOutput, Check, Table, Tier};
@@ -39,58 +38,13 @@ const CASE: &str = "state_pack";
 /// Steps before the pack.
 const WARM: u64 = 200;
 
-const CASE_TEXT: &str = r#"
-gravity = [0.0, 0.0, -2e-4]
-
-[domain]
-nx = 36
-ny = 36
-nz = 36
-
-[fluid]
-precision = "f32"
-nu = 0.02
-collision = "bgk"
-
-[boundaries]
-x_min = "no_slip"
-x_max = "no_slip"
-y_min = "no_slip"
-y_max = "no_slip"
-z_min = "no_slip"
-z_max = "no_slip"
-
-[run]
-steps = 1
-output_every = 1
-
-[contacts]
-
-[impeller]
-kind = "pbt"
-diameter = 18.0
-speed = 2.5e-3
-ramp_steps = 20
-centre = [17.5, 17.5, 20.0]
-blade_thickness = 0.75
-
-[[random_particles]]
-shape = "cylinder"
-diameter = 4.0
-length = 6.0
-density = 1.25
-count = 26
-seed = 7
-region = [[0.5, 0.5, 0.5], [34.5, 34.5, 12.0]]
-clearance = 0.5
-"#;
+/// The small stirred tank of the examples (a PBT above 26 free cylinders with contacts in a
+/// closed 36³ box).
+const CASE_TEXT: &str = include_str!("../../../examples/stirred_tank_particles.toml");
 
 fn coupled(case: &CaseFile) -> Coupled<f32> {
-    let mut fluid = Fluid::<f32>::new(case.grid(), case.fluid_params(), case.boundaries()).expect("fluid");
-    fluid.initialize(|x, y, z| case.initial_state(x, y, z));
-    let mut bodies: Vec<_> = case.particle_inits().expect("particles").iter().map(|p| p.body()).collect();
-    bodies.extend(case.impeller_setup().expect("impeller").as_ref().map(ImpellerSetup::body));
-    Coupled::new(fluid, bodies, case.coupling_params()).expect("coupling")
+    let inits = case.particle_inits().expect("particles");
+    slurry::drive::coupled(case, &inits, case.impeller_setup().expect("impeller").as_ref()).expect("coupling")
 }
 
 fn rel_l2(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
