@@ -471,8 +471,11 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             let p = read_state_pack(pack).map_err(|e| BadResume(e.to_string()))?;
             let run = format!("the run in {}", out_dir.display());
             // The pack's own fingerprint where the case is the same up to normalisation (the
-            // run's `case.toml` continues the run it was written by).
-            let fingerprint = if pack_is_of_case(&p, case) { p.case.clone() } else { case.fingerprint() };
+            // run's `case.toml` continues the run it was written by), or, with
+            // `switch_contacts`, up to the contact scheme's cost settings.
+            let same = pack_is_of_case(&p, case)
+                || (opts.switch_contacts && case.normalised().same_except_contact_scheme(&p.case));
+            let fingerprint = if same { p.case.clone() } else { case.fingerprint() };
             p.check_for(pack, case.grid(), &fingerprint, &run).map_err(|e| BadResume(e.to_string()))?;
             restore_from_pack(&mut solver, &p)
                 .with_context(|| format!("cannot start from {}", pack.display()))?;

@@ -121,8 +121,10 @@ pub struct ReproduceArgs {
     /// directory, at any scale) instead of the settled bed: a frame of its last 20 revolutions
     /// with the impeller where this run's starts, positions scaled to this grid, at rest; the
     /// choice is written to `start.json`. For a half-scale case, started from the steady state
-    /// of a coarser run: the suspension then approaches its level from above. A resumed run
-    /// needs the same directory.
+    /// of a coarser run: the suspension then approaches its level from above. Or a state pack
+    /// (`slurry state-pack`) of a run of this case at this scale: that run continued, its flow
+    /// and particles as packed, to --revolutions after the ramp (more than the pack's). A
+    /// resumed run needs the same directory or pack.
     #[arg(long, value_name = "RUN", conflicts_with_all = ["all", "bed"])]
     pub start_from: Option<PathBuf>,
 }

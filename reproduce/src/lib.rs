@@ -507,6 +507,10 @@ pub struct BedRecord {
     /// settled bed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub start_from: Option<start::StartFrom>,
+    /// Not a settled bed but a state pack's run continued (`--start-from PACK`, [`start`]);
+    /// absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub state_pack: Option<start::PackStart>,
 }
 
 /// How the bed is settled (`slurry reproduce --bed dry|wet`).
@@ -703,7 +707,13 @@ pub fn bed(
             b.max_speed
         );
     }
-    let rec = BedRecord { inputs, wet: matches!(method, BedMethod::Wet), bed: b, start_from: None };
+    let rec = BedRecord {
+        inputs,
+        wet: matches!(method, BedMethod::Wet),
+        bed: b,
+        start_from: None,
+        state_pack: None,
+    };
     let json = serde_json::to_string(&rec).context("cannot serialise the bed")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
     slurry::io::checksum::write_sidecar(&file)
@@ -906,21 +916,51 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         let last = last_step_in_timeseries(&run_dir, &scaled, &sched).unwrap_or(0.0);
         target = leg_target(&scaled, opts.revolutions, opts.until_steady, last);
     }
+    // From a state pack the run continues the packed run's time: the legs it has passed are
+    // skipped, and it must go past the pack.
+    let pack = bed.state_pack.as_ref().map(|p| (p.pack.clone(), p.step));
+    if let Some((path, step)) = &pack {
+        if !opts.resume {
+            target = leg_target(&scaled, opts.revolutions, opts.until_steady, *step as f64);
+        }
+        let leg_end = schedule(&scaled, target)?.steps;
+        if leg_end <= *step {
+            let after = (*step as f64
+                - sched.ramp_steps.div_ceil(sched.output_every) as f64 * sched.output_every as f64)
+                / sched.steps_per_revolution;
+            let e = anyhow::anyhow!(
+                "--revolutions {}: the state pack {} is at step {step}, {after:.2} revolutions after the ramp; ask \
+                 for more (e.g. --revolutions {:.2} for 10 more)",
+                opts.revolutions,
+                path.display(),
+                after + STEADY_CHECK_REVOLUTIONS
+            );
+            let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &e);
+            return Err(e);
+        }
+    }
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {
         let sched = schedule(&scaled, target)?;
-        let leg_case = scheduled(&case, &sched);
+        let mut leg_case = scheduled(&case, &sched);
+        if let Some((_, step)) = &pack {
+            // The fields of Figures 3 and 4 only at steps this run reaches.
+            leg_case.run.snapshots.retain(|s| s > step);
+        }
         let resume = opts.resume || so_far.is_some();
-        let leg = match run_case(
-            &leg_case,
-            &run_dir,
-            RunOptions {
-                quiet: opts.quiet,
-                resume,
-                switch_contacts: opts.switch_contacts,
-                overwrite: opts.overwrite && !resume,
-            },
-        ) {
+        let run_opts = RunOptions {
+            quiet: opts.quiet,
+            resume,
+            switch_contacts: opts.switch_contacts,
+            overwrite: opts.overwrite && !resume,
+        };
+        let leg = match &pack {
+            Some((path, _)) if !resume => {
+                slurry::run::run_case_from_pack(&leg_case, &run_dir, run_opts, path)
+            }
+            _ => run_case(&leg_case, &run_dir, run_opts),
+        };
+        let leg = match leg {
             Ok(run) => run,
             Err(e) => {
                 // The manifest says the session ended and why; the run's files and its last

@@ -800,13 +800,18 @@ fn report_md(
         bed.bed.mean_height + 0.5,
         (bed.bed.mean_height + 0.5) / g.nz as f64
     );
-    let start = match &bed.start_from {
-        Some(from) => format!(
+    let start = match (&bed.start_from, &bed.state_pack) {
+        (None, Some(p)) => format!(
+            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`). The statistics are those \
+             of this run's own revolutions after the pack.",
+            p.describe()
+        ),
+        (Some(from), _) => format!(
             "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`); {height}. The suspension \
              relaxes from that state; the statistics are those of the run's own last revolutions.",
             from.describe()
         ),
-        None => format!(
+        (None, None) => format!(
             "- Bed: placed at random and settled {} in {} steps ({}{}), {height}; {}.",
             if bed.wet { "in the fluid under the case's gravity" } else { "dry (no fluid: amplified gravity against a linear drag)" },
             bed.bed.steps,

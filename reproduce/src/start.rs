@@ -21,6 +21,15 @@
 //!   with the smallest phase error whose particles pass the case's validation (walls' margins,
 //!   no overlaps), refused if the blade tips are more than [`MAX_TIP_SHIFT`] from where they stood.
 //!
+//! **A state pack** (`slurry state-pack`, [`slurry::io::state_pack`]) of a run of this case at
+//! this scale is the other kind of source: not particles to start from but the packed run's
+//! whole state, which the run continues ([`PackStart`]; `slurry::run::run_case_from_pack`):
+//! the flow rebuilt from the pack's density, velocity and force field, every body as it was, the
+//! time going on from the pack's step, so `--revolutions` counts from the ramp as for the
+//! packed run and must go past the pack. The stirred case is the packed run's (its particles'
+//! initial positions come from the pack's case), which the pack's fingerprint then admits; with
+//! `--switch-contacts` it may continue under another contact scheme.
+//!
 //! What was chosen is written to `start.json` in the output directory; a resumed run reads it
 //! back (the source may have moved on or gone), so that its case is the one its checkpoint was
 //! written for.
@@ -91,6 +100,8 @@ pub enum RunStart {
     WetBed,
     /// Another run's particles (`--start-from`): the source, its frame and its ⟨z_p⟩/H.
     StartFrom(StartFrom),
+    /// Another run's whole state (`--start-from PACK`, a state pack): the run it continues.
+    StatePack(PackStart),
 }
 
 impl RunStart {
@@ -104,6 +115,7 @@ impl RunStart {
                 slurry::util::fmt_num((f.scale * 1e4).round() / 1e4),
                 f.mean_height_over_h
             ),
+            RunStart::StatePack(p) => format!("state pack at {:.1} revolutions", p.revolution),
         }
     }
 }
@@ -111,10 +123,11 @@ impl RunStart {
 impl BedRecord {
     /// How a run from this record starts.
     pub fn start(&self) -> RunStart {
-        match (&self.start_from, self.wet) {
-            (Some(from), _) => RunStart::StartFrom(from.clone()),
-            (None, true) => RunStart::WetBed,
-            (None, false) => RunStart::DryBed,
+        match (&self.start_from, &self.state_pack, self.wet) {
+            (Some(from), _, _) => RunStart::StartFrom(from.clone()),
+            (None, Some(p), _) => RunStart::StatePack(p.clone()),
+            (None, None, true) => RunStart::WetBed,
+            (None, None, false) => RunStart::DryBed,
         }
     }
 }
@@ -154,15 +167,7 @@ pub fn start_bed(
     resume: bool,
 ) -> anyhow::Result<BedRecord> {
     let file = out.join(START_FILE);
-    if slurry::io::is_state_pack(src) {
-        anyhow::bail!(
-            "--start-from {}: a state pack (`slurry state-pack`) is a run's whole state, not a \
-             reproduction's particles; continue it with `slurry run RUN/case.toml --from-pack {} \
-             --out DIR`, RUN the packed run's directory",
-            src.display(),
-            src.display()
-        );
-    }
+    let is_pack = slurry::io::is_state_pack(src);
     if resume {
         let rec = read_start_record(out)?.with_context(|| {
             format!(
@@ -171,19 +176,21 @@ pub fn start_bed(
                 file.display()
             )
         })?;
-        let Some(from) = &rec.start_from else {
-            anyhow::bail!("{} records no --start-from source", file.display());
+        let began = match (&rec.start_from, &rec.state_pack) {
+            (Some(from), _) => &from.dir,
+            (None, Some(p)) => &p.pack,
+            (None, None) => anyhow::bail!("{} records no --start-from source", file.display()),
         };
         anyhow::ensure!(
-            from.dir == src,
-            "--start-from {}: this run started from {} ({}); give that directory",
+            began == src,
+            "--start-from {}: this run started from {} ({}); give that one",
             src.display(),
-            from.dir.display(),
+            began.display(),
             file.display()
         );
         return Ok(rec);
     }
-    let rec = choose_start(name, scaled, src)?;
+    let rec = if is_pack { pack_start(name, scaled, src)? } else { choose_start(name, scaled, src)? };
     let json = serde_json::to_string(&rec).context("cannot serialise the start record")?;
     atomic_write_bytes(&file, json.as_bytes()).with_context(|| format!("cannot write {}", file.display()))?;
     Ok(rec)
@@ -235,10 +242,139 @@ pub(super) fn start_or_bed(
             super::bed(name, scaled, opts.bed, &opts.cache, opts.quiet, Some(pointer))?
         }
     };
-    if let (Some(from), false) = (&bed.start_from, opts.quiet) {
-        eprintln!("start: {}", from.describe());
+    if !opts.quiet {
+        if let Some(from) = &bed.start_from {
+            eprintln!("start: {}", from.describe());
+        }
+        if let Some(p) = &bed.state_pack {
+            eprintln!("start: {}", p.describe());
+        }
     }
     Ok((bed, cached))
+}
+
+/// Where a run started from a state pack (`--start-from PACK`, a file of `slurry state-pack`):
+/// the packed run continued, its flow rebuilt from the pack's density, velocity and force
+/// field and its bodies exactly as they were ([`slurry::run::run_case_from_pack`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PackStart {
+    /// The pack, as given.
+    pub pack: PathBuf,
+    /// The pack's step.
+    pub step: u64,
+    /// The pack's time in revolutions (`step · N`, the ramp counting 1, as
+    /// [`StartFrom::revolution`]).
+    pub revolution: f64,
+    /// The pack's label (what it was written from).
+    pub label: String,
+    /// The pack's content checksum (BLAKE3).
+    pub checksum: String,
+}
+
+impl PackStart {
+    /// One line for the console and the report.
+    pub fn describe(&self) -> String {
+        format!(
+            "the state pack `{}` ({}) at its step {} ({:.1} revolutions): the packed run continued, its flow \
+             rebuilt from density, velocity and force field (regularised), its particles as they were",
+            self.pack.display(),
+            self.label,
+            self.step,
+            self.revolution
+        )
+    }
+}
+
+/// The start record of a run of the scaled case `scaled` (case `name`) from the state pack
+/// `src`: the particles the packed run was started with (its case's, so that the stirred case
+/// is the packed run's and the pack's fingerprint check admits it), and the pack's step.
+///
+/// # Errors
+/// `src` cannot be read (or is corrupt), holds no bodies, or was written for another case or
+/// scale than `name` at this scale; each message names `--start-from` and the path.
+fn pack_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedRecord> {
+    let what = || format!("--start-from {}", src.display());
+    let pack = slurry::io::read_state_pack(src).with_context(what)?;
+    let grid = scaled.grid();
+    anyhow::ensure!(
+        pack.grid == grid,
+        "{}: a state pack of the {} x {} x {} grid; {name} at this scale is {} x {} x {} (give the --scale it was \
+         written at)",
+        what(),
+        pack.grid.nx,
+        pack.grid.ny,
+        pack.grid.nz,
+        grid.nx,
+        grid.ny,
+        grid.nz
+    );
+    anyhow::ensure!(pack.bodies.is_some(), "{}: the pack holds no bodies (not a stirred run's)", what());
+    let packed: Case = toml::from_str(&pack.case)
+        .map_err(|e| anyhow::anyhow!("{}: the pack's case cannot be read: {e}", what()))?;
+    // The particles are the pack's: they must be this case's population (its count, shape,
+    // size and density), or the pack is another ℓ/d's.
+    let template = scaled.random_particles.first().ok_or_else(|| {
+        anyhow::anyhow!("the scaled case {name} has no random particle population to compare with")
+    })?;
+    let count = scaled.particle_count();
+    let alike = |p: &ParticleSpec| {
+        p.shape == template.shape
+            && p.diameter == template.diameter
+            && p.length == template.length
+            && p.density == template.density
+            && p.motion == template.motion
+    };
+    anyhow::ensure!(
+        packed.particles.len() == count && packed.particles.iter().all(alike),
+        "{}: written for another case than {name} at this scale: its {} particles are not this case's {count} \
+         {:?} of d = {}, ℓ = {:?}, density {}",
+        what(),
+        packed.particles.len(),
+        template.shape,
+        template.diameter,
+        template.length,
+        template.density
+    );
+    // The scaled case with the packed run's particles must be the packed run's case up to its
+    // run settings and contact scheme (which `run_case_from_pack` checks with the options).
+    let mut same = scaled.clone();
+    same.random_particles.clear();
+    same.particles = packed.particles.clone();
+    same.run = packed.run.clone();
+    anyhow::ensure!(
+        same.normalised().fingerprint_except_contact_scheme()
+            == packed.normalised().fingerprint_except_contact_scheme(),
+        "{}: written for another case than {name} at this scale (the pack's case {}; this one's {})",
+        what(),
+        slurry::io::state_pack::fingerprint_digest(&pack.case),
+        slurry::io::state_pack::fingerprint_digest(&same.fingerprint())
+    );
+    let steps_per_rev = super::schedule(scaled, 1.0)?.steps_per_revolution;
+    let bed = Bed {
+        particles: packed.particles,
+        steps: 0,
+        mean_speed: 0.0,
+        max_speed: 0.0,
+        settled: true,
+        mean_height: 0.0,
+        seconds: 0.0,
+        restarts: 0,
+        relax_steps: 0,
+    };
+    let from = PackStart {
+        pack: src.to_path_buf(),
+        step: pack.time_step,
+        revolution: pack.time_step as f64 / steps_per_rev,
+        label: pack.label.clone(),
+        checksum: pack.checksum(),
+    };
+    Ok(BedRecord {
+        inputs: format!("state pack {} at step {}", src.display(), pack.time_step),
+        wet: false,
+        bed,
+        start_from: None,
+        state_pack: Some(from),
+    })
 }
 
 /// `angle` less the nearest multiple of `period`, in `(−period/2, period/2]`; 0 without one.
@@ -521,7 +657,7 @@ fn choose_start(name: &str, scaled: &Case, src: &Path) -> anyhow::Result<BedReco
             restarts: 0,
             relax_steps: 0,
         };
-        return Ok(BedRecord { inputs, wet: false, bed, start_from: Some(from) });
+        return Ok(BedRecord { inputs, wet: false, bed, start_from: Some(from), state_pack: None });
     }
     let best = order.first().map_or(f64::NAN, |o| o.0.to_degrees());
     anyhow::bail!(
@@ -561,30 +697,87 @@ mod tests {
         assert_eq!(angle("disk-ld2"), None);
     }
 
-    /// A state pack is a run's whole state, not particles to start from: refused, naming the
-    /// command that continues it.
-    #[test]
-    fn a_state_pack_is_refused_with_the_command_that_continues_it() {
-        let dir = tempfile::tempdir().unwrap();
-        let pack_path = dir.path().join("pack.h5");
-        let scaled =
-            super::super::scale_case(&super::super::paper_case("pbt-ld2").unwrap().case().unwrap(), 0.25)
-                .unwrap();
-        let grid = scaled.grid();
+    /// A pack of `case` (its fingerprint) on `grid`, with `bodies` (none, or no particles).
+    fn pack_of(path: &Path, case: &Case, grid: slurry::lattice::Grid, bodies: bool) {
         let n = grid.nodes();
         let pack = slurry::io::StatePack {
-            time_step: 2,
+            time_step: 1000,
             grid,
             rho: vec![1.0; n],
             velocity: vec![[0.0; 3]; n],
             force: None,
-            bodies: None,
-            case: scaled.fingerprint(),
+            bodies: bodies.then(Vec::new),
+            case: case.fingerprint(),
             label: "test".into(),
         };
-        slurry::io::write_state_pack(&pack_path, &pack).unwrap();
-        let e = start_bed("pbt-ld2", &scaled, &pack_path, dir.path(), false).unwrap_err().to_string();
-        assert!(e.contains("a state pack") && e.contains("--from-pack"), "{e}");
+        slurry::io::write_state_pack(path, &pack).unwrap();
+    }
+
+    fn scaled(name: &str) -> Case {
+        super::super::scale_case(&super::super::paper_case(name).unwrap().case().unwrap(), 0.25).unwrap()
+    }
+
+    /// The stirred case of `scaled` with its population as explicit particles (all at one
+    /// place: only their kind and number are compared).
+    fn stirred(scaled: &Case) -> Case {
+        let mut c = scaled.clone();
+        let t = c.random_particles.remove(0);
+        let p = ParticleSpec {
+            shape: t.shape,
+            diameter: t.diameter,
+            length: t.length,
+            density: t.density,
+            position: [10.0; 3],
+            orientation: None,
+            axis: None,
+            velocity: None,
+            angular_velocity: None,
+            motion: t.motion,
+        };
+        c.particles = vec![p; scaled.particle_count()];
+        c
+    }
+
+    /// A state pack of this case and scale is accepted: the record names the pack, its step
+    /// and revolution, and is written to `start.json`, which a resume reads back (and refuses
+    /// another source).
+    #[test]
+    fn a_state_pack_of_the_case_is_the_start() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pack.h5");
+        let s = scaled("pbt-ld2");
+        pack_of(&path, &stirred(&s), s.grid(), true);
+        let rec = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap();
+        let p = rec.state_pack.clone().expect("a pack start");
+        assert_eq!((p.step, p.label.as_str()), (1000, "test"));
+        let spr = super::super::schedule(&s, 1.0).unwrap().steps_per_revolution;
+        assert_eq!(p.revolution, 1000.0 / spr);
+        assert!(rec.start_from.is_none() && matches!(rec.start(), RunStart::StatePack(_)));
+        let again = start_bed("pbt-ld2", &s, &path, dir.path(), true).unwrap();
+        assert_eq!(again.state_pack, rec.state_pack);
+        let e = start_bed("pbt-ld2", &s, &dir.path().join("other.h5"), dir.path(), true).unwrap_err();
+        assert!(e.to_string().contains("give that one"), "{e}");
+    }
+
+    /// Packs of another case, another scale, or without bodies are refused, each saying why.
+    #[test]
+    fn foreign_state_packs_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pack.h5");
+        let s = scaled("pbt-ld2");
+        for other in ["pbt-ld4", "disk-ld2"] {
+            let o = scaled(other);
+            pack_of(&path, &stirred(&o), o.grid(), true);
+            let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
+            assert!(e.contains("another case than pbt-ld2"), "{other}: {e}");
+        }
+        let g = slurry::lattice::Grid { nx: 84, ny: 84, nz: 80 };
+        pack_of(&path, &stirred(&s), g, true);
+        let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
+        assert!(e.contains("84 x 84 x 80") && e.contains("--scale"), "{e}");
+        pack_of(&path, &stirred(&s), s.grid(), false);
+        let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
+        assert!(e.contains("no bodies"), "{e}");
     }
 
     #[test]

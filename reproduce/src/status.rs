@@ -488,7 +488,13 @@ mod tests {
             restarts: 0,
             relax_steps: 0,
         };
-        let rec = crate::BedRecord { inputs: String::new(), wet: false, bed, start_from: Some(from) };
+        let rec = crate::BedRecord {
+            inputs: String::new(),
+            wet: false,
+            bed,
+            start_from: Some(from),
+            state_pack: None,
+        };
         let file = dir.path().join(crate::start::START_FILE);
         assert!(!status(dir.path()).unwrap().contains("start:"), "no start.json: from a bed");
         std::fs::write(&file, serde_json::to_string(&rec).unwrap()).unwrap();

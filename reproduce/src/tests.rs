@@ -201,6 +201,7 @@ fn cached_bed_reads_back_bitwise() {
             relax_steps: 0,
         },
         start_from: None,
+        state_pack: None,
     };
     let back: BedRecord = serde_json::from_str(&serde_json::to_string(&rec).unwrap()).unwrap();
     let bits = |r: &BedRecord| -> Vec<u64> {
@@ -314,6 +315,7 @@ fn disk_and_pbt_of_one_aspect_ratio_share_their_bed() {
             relax_steps: 0,
         },
         start_from: None,
+        state_pack: None,
     };
     let dir = cache.path().join("beds").join(format!("pbt-ld2-{:016x}", fnv1a(&inputs)));
     std::fs::create_dir_all(&dir).unwrap();

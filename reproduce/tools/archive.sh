@@ -4,7 +4,9 @@
 # report, statistics, reproduce.json, the run's summary.json and timeseries.csv, start.json
 # (a run started with --start-from), the PNG figures (each checked under 300 KB), and the
 # run's start pack in DEST/start/ (`slurry start-pack`: its last frames at a blade position,
-# under 1 MB, so that `--start-from DEST/start` works once RUN_OUT is gone). Fields, particle
+# under 1 MB, so that `--start-from DEST/start` works once RUN_OUT is gone), and the state pack
+# of its last checkpoint in DEST/state.h5 (`slurry state-pack`: 4 MB at s = 1/4, so that
+# `--start-from DEST/state.h5` continues the run itself; skipped with NO_STATE=1). Fields, particle
 # histories and checkpoints stay out of git. SLURRY names the binary (default
 # target/release/slurry). Write the archive's MANIFEST.md by hand: what the run shows, its
 # sessions, its host.
@@ -26,4 +28,5 @@ cp "$src/run/summary.json" "$src/run/timeseries.csv" "$dest/"
 [ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
 cp "$src"/*.png "$dest/"
 "$SLURRY" start-pack "$src" "$dest/start"
+[ "${NO_STATE:-0}" = 1 ] || "$SLURRY" state-pack "$src/run" "$dest/state.h5"
 ls -la "$dest"

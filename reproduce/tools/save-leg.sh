@@ -4,15 +4,20 @@
 # checkout's archive, e.g. reproduce/CASE/runs/DATE-sSCALE-below-leg1/: manifest.json,
 # start.json (a run started with --start-from), run/timeseries.csv, and a start pack of its
 # last frames in DEST/start/ (`slurry start-pack`, under 1 MB), so that the next leg can
-# `--start-from DEST/start` once RUN_OUT is gone with the machine.
+# `--start-from DEST/start` once RUN_OUT is gone with the machine; and a state pack of its
+# checkpoint, DEST/state.h5 (`slurry state-pack`: the whole state, 4 MB at s = 1/4, at most
+# 40 MB at s = 1/2), so that the next leg continues the run itself:
+# `slurry reproduce CASE --scale S --start-from DEST/state.h5 --revolutions R` (R past the pack).
 #
 # Why: the campaign's runs directory was lost with the machine at six session ends
 # (reproduce/JOURNAL.md, "The campaign's history"); a run at s = 1/2 needs 10-14 h of stepping,
-# several sessions. A leg started from a pack is a new run: its particles where the last one
-# left them, at rest, the fluid at rest and the impeller's ramp (slurry_reproduce::start),
-# so each leg begins with a transient of a few revolutions; the legs' time series are joined
-# by hand, and a steady verdict is only that of one leg (the report's test on its own last 20
-# revolutions). A run that survived is resumed with --resume instead, bit for bit.
+# several sessions. A leg continued from the state pack goes on from where the last one
+# stopped (flow rebuilt from density and velocity, particles exact: no transient); a leg
+# started from the start pack is a new run (particles at rest, the fluid at rest and the
+# impeller's ramp, slurry_reproduce::start), which begins with a transient of about ten
+# revolutions. Either way the legs' time series are joined by hand, and a steady verdict is
+# only that of one leg (the report's test on its own last 20 revolutions). A run that survived
+# is resumed with --resume instead, bit for bit.
 #
 # Stop the run first (SIGTERM: it writes a checkpoint of the step it has reached and exits),
 # so that the pack and the time series end at the same step. SLURRY names the binary (default
@@ -29,5 +34,6 @@ mkdir -p "$dest"
 cp "$src/manifest.json" "$src/run/timeseries.csv" "$dest/"
 [ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
 "$SLURRY" start-pack "$src" "$dest/start"
-du -sh "$dest" "$dest/start"
+"$SLURRY" state-pack "$src/run" "$dest/state.h5"
+du -sh "$dest" "$dest/start" "$dest/state.h5"
 tail -n 1 "$dest/timeseries.csv" | cut -d, -f1,8
