@@ -5,10 +5,10 @@
 //! Small grids with odd sizes (indexing errors show), 100–200 steps: a periodic box driven by a
 //! body force and a force field (BGK and TRT), a closed box with a moving lid, a solid block,
 //! and a run on the device continued from its checkpoint on the CPU and on the device. The
-//! device performs the CPU's operations in the CPU's order on the same f32 storage; where its
-//! fused multiply-add and division round as the CPU's do (lavapipe on a processor with FMA) the
-//! two agree bitwise, and the comparison reports it. Where a driver rounds otherwise, they may
-//! differ by round-off: the bound [`BOUND`] below says how much that may be.
+//! device performs the CPU's operations in the CPU's order on the same f32 storage, but its
+//! driver may contract or split `fma` and round `1/ρ` otherwise (Vulkan allows it), so the two
+//! differ by round-off: the bound [`BOUND`] below says how much that may be, and each test
+//! prints what it measured. Device runs themselves are compared bitwise.
 //!
 //! Without a Vulkan adapter these tests fail, with a message that names `cargo xtask setup`.
 
@@ -27,7 +27,8 @@ use slurry::run::{run_case, RunOptions};
 /// 2^-24 · 2^-6 ≈ 1e-9. A driver that does not fuse `fma` or rounds `1/ρ` within 2.5 ulp
 /// (Vulkan's bound) changes a few roundings per collision, and the differences are carried
 /// and damped by the collision (|1 − ω| < 1): a few ulp per step, growing at most linearly,
-/// 200 steps × a few × 1e-9 ≈ 1e-6. Measured on lavapipe: 0 (bitwise).
+/// 200 steps × a few × 1e-9 ≈ 1e-6. Measured on lavapipe (Mesa 22.3, LLVM 15): at most 3.7e-9,
+/// most populations differing by an ulp or two.
 const BOUND: f64 = 2e-6;
 
 fn ctx() -> &'static Context {
@@ -111,11 +112,13 @@ fn periodic_box_with_body_force_and_force_field_bgk() {
     let (_, mass0) = cpu.mass_deviation();
     let dev = on_both(&mut cpu, 200, make);
     check("periodic BGK, body force and field, 200 steps", &cpu, &dev);
-    // Mass: the collision conserves Σh exactly in exact arithmetic; in f32 the sum over 8640
-    // nodes of O(1e-3) deviations changes by round-off, ~1e-10 per node and step at most.
+    // Mass: the collision conserves Σh exactly in exact arithmetic; in f32 each node's 19
+    // stored values are rounded each step (≤ 1e-9 each at O(1e-2)), with signs that do not
+    // line up: √(8640 · 19 · 200) · 1e-9 ≈ 2e-5 over the run. Measured: 1.9e-6, as on the CPU.
     let (_, mass1) = dev.mass_deviation();
-    println!("mass deviation {mass0:.6e} -> {mass1:.6e}");
-    assert!((mass1 - mass0).abs() < 1e-4, "device mass changed by {:.3e}", mass1 - mass0);
+    let (_, cpu1) = cpu.mass_deviation();
+    println!("mass deviation {mass0:.6e} -> device {mass1:.6e}, CPU {cpu1:.6e}");
+    assert!((mass1 - mass0).abs() < 2e-5, "device mass changed by {:.3e}", mass1 - mass0);
 }
 
 #[test]
@@ -141,7 +144,8 @@ fn closed_box_with_a_moving_lid() {
     check("closed box, moving lid, TRT, 150 steps", &cpu, &dev);
     // Closed box: no population leaves; the walls' terms sum to zero over each wall (ρ_w = 1).
     let (m0, m1) = (make().mass_deviation().1, dev.mass_deviation().1);
-    assert!((m1 - m0).abs() < 1e-4, "mass changed by {:.3e}", m1 - m0);
+    // The bound of the periodic box's mass check (round-off only), for a similar node count.
+    assert!((m1 - m0).abs() < 2e-5, "mass changed by {:.3e}", m1 - m0);
 }
 
 #[test]
@@ -257,7 +261,7 @@ fn cases_with_particles_or_f64_are_refused_on_the_device() {
     case.run.device = slurry::case::Device::Gpu;
     let e = case.validate_settings().unwrap_err().to_string();
     assert!(e.contains("run.device") && e.contains("fluid only"), "{e}");
-    let mut case = Case::parse(&case_text(10, "cpu").replace("f32", "f64"), "f64.toml").unwrap();
+    let mut case = Case::parse(&case_text(100, "cpu").replace("f32", "f64"), "f64.toml").unwrap();
     case.run.device = slurry::case::Device::Gpu;
     let e = case.validate_settings().unwrap_err().to_string();
     assert!(e.contains("run.device") && e.contains("f32"), "{e}");
