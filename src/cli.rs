@@ -18,7 +18,7 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Args;
 
-use crate::case::{Case, CaseError};
+use crate::case::{Case, CaseError, Device};
 use crate::run::{run_case, run_case_from_pack, write_run_state_pack, RunOptions};
 use crate::settle::{settle_case, SettleOptions};
 
@@ -94,6 +94,10 @@ pub struct RunArgs {
     /// exactly as packed; close to the packed run's own continuation, not bitwise.
     #[arg(long, value_name = "PACK", conflicts_with = "resume")]
     pub from_pack: Option<PathBuf>,
+    /// Which processor steps the fluid, overriding the case's `[run] device`: `cpu`, or `gpu`
+    /// (the device backend through Vulkan; fluid-only cases in f32 so far).
+    #[arg(long, value_name = "DEVICE", value_parser = ["cpu", "gpu"])]
+    pub device: Option<String>,
     /// How the run starts, threads, progress.
     #[command(flatten)]
     pub control: RunControl,
@@ -167,6 +171,14 @@ pub struct BenchArgs {
     /// Write the results as a JSON array to this file (atomically).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// `gpu`: also measure the device backend's fluid step (f32) beside the CPU's, in the same
+    /// run; its rows read `gpu` in the instruction-set column. A CPU driver's (lavapipe's)
+    /// figures show that the path works, not its speed.
+    #[arg(long, value_name = "DEVICE", value_parser = ["cpu", "gpu"], default_value = "cpu")]
+    pub device: String,
+    /// The device kernels' work-group size (threads along x), with `--device gpu`.
+    #[arg(long, value_name = "N", default_value_t = crate::device::fluid::DEFAULT_WORKGROUP)]
+    pub workgroup: u32,
 }
 
 /// Runs a command: SIGINT and SIGTERM handled as a request to stop at a checkpoint, HDF5's
@@ -278,7 +290,10 @@ pub fn usable_out_dir(dir: &Path) -> Result<(), BadInput> {
 /// # Errors
 /// Bad input (the case, the flags, the output directory) or a failed run.
 pub fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
-    let case = Case::from_file(&a.case)?;
+    let mut case = Case::from_file(&a.case)?;
+    if let Some(d) = &a.device {
+        case.run.device = if d == "gpu" { Device::Gpu } else { Device::Cpu };
+    }
     usable_out_dir(&a.out)?;
     let pool = thread_pool(a.control.console.threads)?;
     let opts = a.control.run_options();
@@ -398,7 +413,7 @@ fn parse_size(s: &str) -> anyhow::Result<crate::lattice::Grid> {
 /// # Errors
 /// Bad flags, or the JSON file cannot be written.
 pub fn cmd_bench(a: &BenchArgs) -> anyhow::Result<()> {
-    use crate::bench::{measure, BenchResult};
+    use crate::bench::{measure, measure_device, BenchResult};
     let grids = a.sizes.iter().map(|s| parse_size(s)).collect::<anyhow::Result<Vec<_>>>()?;
     for p in &a.precisions {
         if p != "f32" && p != "f64" {
@@ -417,6 +432,16 @@ pub fn cmd_bench(a: &BenchArgs) -> anyhow::Result<()> {
         check_threads("--threads", t)?;
     }
     let mut results: Vec<BenchResult> = Vec::new();
+    let ctx = if a.device == "gpu" {
+        let ctx = crate::device::Context::new()?;
+        println!("device: {}", ctx.describe());
+        if ctx.is_cpu_driver() {
+            println!("(a CPU driver: its MLUPS show that the device path works, not its speed)");
+        }
+        Some(ctx)
+    } else {
+        None
+    };
     println!(
         "{:>13} {:>4} {:>4} {:>3} {:>9} {:>9} {:>7} {:>7}",
         "grid", "prec", "coll", "thr", "MLUPS", "median", "GB/s", "isa"
@@ -437,6 +462,21 @@ pub fn cmd_bench(a: &BenchArgs) -> anyhow::Result<()> {
                         r.precision,
                         r.collision,
                         r.threads,
+                        r.mlups,
+                        r.mlups_median,
+                        r.gbs,
+                        r.isa
+                    );
+                    results.push(r);
+                }
+                if let (Some(ctx), true) = (&ctx, p == "f32") {
+                    let r = measure_device(ctx, *g, c == "trt", a.workgroup, a.reps, a.seconds)?;
+                    println!(
+                        "{:>13} {:>4} {:>4} {:>3} {:>9.1} {:>9.1} {:>7.1} {:>7}",
+                        format!("{}x{}x{}", g.nx, g.ny, g.nz),
+                        r.precision,
+                        r.collision,
+                        "-",
                         r.mlups,
                         r.mlups_median,
                         r.gbs,

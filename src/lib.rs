@@ -13,6 +13,8 @@
 //! - [`util`]: seeded random numbers, compensated summation, number formatting, the shared
 //!   mutable slice of the parallel phases ([`util::SharedMut`]);
 //! - [`lbm`]: the fluid solver (knows nothing of particles);
+//! - [`device`]: the fluid's step on a GPU through wgpu (Vulkan), the CPU solver its host
+//!   mirror and reference;
 //! - [`ibm`]: immersed-boundary transfer: delta kernels, marker stencils, interpolation and
 //!   spreading as an adjoint pair (knows nothing of the fluid solver);
 //! - [`rigid`]: rigid bodies, shapes and surface markers, quaternion integration (knows
@@ -45,6 +47,7 @@ pub mod case;
 pub mod cli;
 pub mod contact;
 pub mod coupling;
+pub mod device;
 pub mod drive;
 pub mod ibm;
 pub mod interrupt;

@@ -29,6 +29,11 @@
 //! angle, speed, torques and power numbers ([`ImpellerTorques`]). Without particles the run
 //! is single-phase with the impeller alone.
 //!
+//! **Device.** With `run.device = "gpu"` (fluid-only f32 cases) the fluid steps on the device
+//! ([`crate::device::DeviceFluid`]), set up and restored on the host first; the host's fluid is
+//! its mirror, downloaded at output, checkpoint and snapshot steps and read there by the
+//! same code as a CPU run's, so checkpoints and output are a CPU run's.
+//!
 //! **State packs.** [`state_pack_of`] takes a compact state of a fluid (and its bodies) at an
 //! even step ([`crate::io::state_pack`]), [`write_run_state_pack`] one of a run directory's
 //! checkpoint (`slurry state-pack`); [`run_case_from_pack`] starts a run from one, its
@@ -47,19 +52,23 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
-use crate::case::{Case, ImpellerSetup, Precision};
-use crate::coupling::{BodyState, Coupled, CoupledState, CouplingError};
-use crate::drive::{self, particle_frame, particle_statics};
+use crate::case::{Case, Device, ImpellerSetup, Precision};
+use crate::coupling::{BodyState, Coupled, CoupledState};
+use crate::drive::{self, particle_statics};
 use crate::interrupt;
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, read_state_pack, write_checkpoint, write_fields_h5,
-    write_state_pack, write_xdmf, ParticleAggregates, ParticleFrame, ParticleHistoryWriter, StatePack,
-    TimeSeriesRow, TimeSeriesWriter,
+    write_state_pack, write_xdmf, ParticleAggregates, ParticleHistoryWriter, StatePack, TimeSeriesRow,
+    TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::{Fluid, FluidState, Health, MacroFields, Real};
+
+mod solver;
+
+use solver::Solver;
 
 /// File names written into the output directory.
 pub mod files {
@@ -169,7 +178,7 @@ pub struct RunSummary {
     pub grid: Grid,
     /// Storage precision (`"f32"` or `"f64"`).
     pub precision: &'static str,
-    /// The kernel's instruction set.
+    /// The kernel's instruction set, or `device: ADAPTER` for a run on the device.
     pub isa: String,
     /// Rayon threads used.
     pub threads: usize,
@@ -258,38 +267,6 @@ fn kept_max_mach(path: &Path) -> f64 {
         return 0.0;
     };
     lines.filter_map(|l| l.split(',').nth(col)?.parse::<f64>().ok()).fold(0.0, f64::max)
-}
-
-/// The fluid alone, or the fluid coupled with particles.
-enum Solver<T: Real> {
-    Fluid(Box<Fluid<T>>),
-    Coupled(Box<Coupled<T>>),
-}
-
-impl<T: Real> Solver<T> {
-    fn fluid(&self) -> &Fluid<T> {
-        match self {
-            Solver::Fluid(f) => f,
-            Solver::Coupled(c) => c.fluid(),
-        }
-    }
-
-    fn run(&mut self, n: u64) -> Result<(), CouplingError> {
-        match self {
-            Solver::Fluid(f) => {
-                f.run(n);
-                Ok(())
-            }
-            Solver::Coupled(c) => c.run(n),
-        }
-    }
-
-    /// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of
-    /// the last step; `None` without particles.
-    fn particle_frame(&self, n: usize) -> Option<ParticleFrame> {
-        let Solver::Coupled(c) = self else { return None };
-        (n > 0).then(|| particle_frame(c, n))
-    }
 }
 
 /// The progress message of an output step: revolutions, `⟨z_p⟩/H` and `Po` when the run
@@ -485,7 +462,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 let impeller_count = if impeller.is_some() { c.body_marker_count(particles) } else { 0 };
                 (c.marker_count(), impeller_count)
             }
-            Solver::Fluid(_) => (0, 0),
+            Solver::Fluid(_) | Solver::Device { .. } => (0, 0),
         };
 
         let timeseries_path = out_dir.join(files::TIMESERIES);
@@ -535,6 +512,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             .with_context(|| format!("cannot write {}", case_path.display()))?;
         let resumed_at = opts.resume.then(|| solver.fluid().time());
         let pack_step = pack.map(|_| solver.fluid().time());
+        // Restored (or started) on the host, then moved onto the device as it stands.
+        if case.run.device == Device::Gpu {
+            solver = solver.onto_device()?;
+        }
         Ok(Self {
             case,
             out_dir,
@@ -566,8 +547,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let output_every = self.case.run.output_every;
         let checkpoint_every = self.case.run.checkpoint_every;
         let progress = progress_bar(total, quiet);
-        progress.set_position(self.solver.fluid().time());
-        let first_step = self.solver.fluid().time();
+        progress.set_position(self.solver.time());
+        let first_step = self.solver.time();
         let mut stepped = Stepped {
             first_step,
             step_time: Duration::ZERO,
@@ -582,8 +563,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let mut status = String::new();
 
         loop {
-            let fluid = self.solver.fluid();
-            let step = fluid.time();
+            let step = self.solver.time();
             let output_due = step.is_multiple_of(output_every) || step == total;
             // A stop request is answered at an even step (the state is complete only then; from
             // an odd one the block below stops after one step) with this step's checkpoint,
@@ -593,6 +573,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 (checkpoint_every.is_some_and(|c| step.is_multiple_of(c)) && step > 0) || stop.is_some();
             let snapshot_due = self.case.run.snapshots.contains(&step);
             if output_due || checkpoint_due || snapshot_due {
+                self.solver.sync()?;
+                let fluid = self.solver.fluid();
                 let health = fluid.health(mach_limit);
                 if !health.is_ok() {
                     progress.abandon();
@@ -655,21 +637,14 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             // warm coupled step allocates nothing: tests/no_alloc_in_step.rs). A step at a
             // time, so that a stop request ends the block at the next even step.
             let solver = &mut self.solver;
-            let stepped_block = rayon::scope(|_| -> Result<u64, CouplingError> {
-                for done in 1..=block {
-                    solver.run(1)?;
-                    if interrupt::requested().is_some() && solver.fluid().time().is_multiple_of(2) {
-                        return Ok(done);
-                    }
-                }
-                Ok(block)
-            });
+            let stepped_block = rayon::scope(|_| solver.advance(block));
             let block = match stepped_block {
                 Ok(n) => n,
                 Err(e) => {
                     progress.abandon();
                     return Err(anyhow::anyhow!(
-                        "the coupled step failed between steps {step} and {}: {e}; the output up to step {last_good} is kept",
+                        "the {} step failed between steps {step} and {}: {e:#}; the output up to step {last_good} is kept",
+                        if matches!(self.solver, Solver::Coupled(_)) { "coupled" } else { "fluid" },
                         next.min(total)
                     ));
                 }
@@ -678,7 +653,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             stepped.step_time += block_time;
             block_mlups = nodes * block as f64 / block_time.as_secs_f64().max(1e-9) / 1e6;
             progress.set_message(format!("{status}{block_mlups:.1} MLUPS"));
-            let now_step = self.solver.fluid().time();
+            let now_step = self.solver.time();
             progress.set_position(now_step);
             if log_lines && (last_log.elapsed().as_secs_f64() >= 30.0 || now_step >= total) {
                 last_log = Instant::now();
@@ -751,6 +726,11 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 let state = c.snapshot().context("checkpoint at an odd step")?;
                 write_checkpoint(&self.checkpoint_path, &state.fluid, Some(&state.bodies), &self.fingerprint)
             }
+            // The host mirror, synced at this step: the same checkpoint as a CPU run's.
+            Solver::Device { host, .. } => {
+                let state = host.snapshot().context("checkpoint at an odd step")?;
+                write_checkpoint(&self.checkpoint_path, &state, None, &self.fingerprint)
+            }
         }
         .with_context(|| format!("cannot write {}", self.checkpoint_path.display()))
     }
@@ -762,6 +742,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         if let Some(history) = self.history.as_mut() {
             history.finish().with_context(|| format!("cannot merge {}", self.history_path.display()))?;
         }
+        self.solver.sync()?;
         self.write_fields(files::FIELDS_H5, files::FIELDS_XMF)?;
         let fluid = self.solver.fluid();
         let grid = self.case.grid();
@@ -772,7 +753,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             steps: fluid.time(),
             grid,
             precision: T::NAME,
-            isa: fluid.isa().name().to_string(),
+            isa: match &self.solver {
+                Solver::Device { device, .. } => format!("device: {}", device.adapter()),
+                _ => fluid.isa().name().to_string(),
+            },
             threads: rayon::current_num_threads(),
             wall_time_s: start.elapsed().as_secs_f64(),
             step_time_s: step_seconds,
@@ -872,7 +856,9 @@ fn restore<T: Real + hdf5::H5Type>(
         .into());
     }
     match solver {
-        Solver::Fluid(f) => f.restore(&checkpoint.state).context("cannot restore the checkpoint")?,
+        Solver::Fluid(f) | Solver::Device { host: f, .. } => {
+            f.restore(&checkpoint.state).context("cannot restore the checkpoint")?
+        }
         Solver::Coupled(c) => {
             let bodies = checkpoint
                 .bodies
@@ -951,7 +937,7 @@ pub fn restore_coupled_from_pack<T: Real>(c: &mut Coupled<T>, pack: &StatePack) 
 /// Restores `solver` from `pack`.
 fn restore_from_pack<T: Real>(solver: &mut Solver<T>, pack: &StatePack) -> anyhow::Result<()> {
     match solver {
-        Solver::Fluid(f) => {
+        Solver::Fluid(f) | Solver::Device { host: f, .. } => {
             let state = pack_fluid_state(f, pack)?;
             f.restore(&state).map_err(|e| anyhow::anyhow!("{e}"))
         }

@@ -576,6 +576,7 @@ pub fn bed_inputs(c: &Case, method: &BedMethod) -> anyhow::Result<(Case, String)
         mach_limit: slurry::case::default_mach_limit(),
         checkpoint_every: None,
         snapshots: Vec::new(),
+        device: slurry::case::Device::Cpu,
     };
     let case_text = toml::to_string(&key_case.normalised()).context("cannot serialise the case")?;
     let wet = wet_settling(&key_case);

@@ -65,7 +65,7 @@ pub use errors::{CaseError, CaseErrorKind};
 pub use impeller::{ImpellerKindSpec, ImpellerSection, ImpellerSetup, PumpingSpec};
 pub use particles::{IbmSection, MotionKind, ParticleInit, ParticleSpec, RandomParticles, ShapeKind};
 pub use schema::{
-    default_mach_limit, mach_limit_allowed, BoundarySection, BoundarySpec, Case, CollisionModel,
+    default_mach_limit, mach_limit_allowed, BoundarySection, BoundarySpec, Case, CollisionModel, Device,
     DomainSection, FluidSection, InitialKind, InitialSection, Precision, RunSection,
 };
 
@@ -212,6 +212,8 @@ impl Case {
         // may continue under a higher one. Set to the default, not removed, so that the
         // fingerprints of runs at the default stay what they were.
         c.run.mach_limit = default_mach_limit();
+        // The processor changes no number beyond round-off: a run may continue on the other.
+        c.run.device = Device::Cpu;
         toml::to_string(&c).unwrap_or_default()
     }
 

@@ -82,6 +82,32 @@ impl Precision {
     }
 }
 
+/// Which processor steps the fluid: the CPU solver or the device backend.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Device {
+    /// The CPU solver (`lbm::Fluid`), the reference.
+    #[default]
+    Cpu,
+    /// The device backend (`device::DeviceFluid`): a GPU through Vulkan, or a CPU driver (lavapipe).
+    Gpu,
+}
+
+impl Device {
+    /// `"cpu"` or `"gpu"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Device::Cpu => "cpu",
+            Device::Gpu => "gpu",
+        }
+    }
+
+    /// Whether this is the CPU (for `skip_serializing_if`: a case on the CPU reads as before).
+    pub fn is_cpu(&self) -> bool {
+        *self == Device::Cpu
+    }
+}
+
 /// Collision model as named in a case file.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -246,6 +272,11 @@ pub struct RunSection {
     /// part of the run's fingerprint: a resume may add some.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub snapshots: Vec<u64>,
+    /// Which processor steps the fluid: `"cpu"` (default) or `"gpu"` (the device backend,
+    /// fluid-only cases in f32 so far; `slurry run --device` overrides it). Not part of the
+    /// run's fingerprint: a checkpoint of either continues on the other.
+    #[serde(default, skip_serializing_if = "Device::is_cpu")]
+    pub device: Device,
 }
 
 /// The default Mach limit, 0.3.

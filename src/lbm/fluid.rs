@@ -926,3 +926,62 @@ fn run_moments_rows<T: Real>(
             [(m[0] + 0.5 * force[0]) / rk, (m[1] + 0.5 * force[1]) / rk, (m[2] + 0.5 * force[2]) / rk];
     }
 }
+
+/// One link operation as stored: slots `own` and `ghost` (`q·stride + n`), the wall term, and
+/// whether it is a periodic copy (no term added).
+pub(crate) struct LinkView<T> {
+    pub own: usize,
+    pub ghost: usize,
+    pub term: T,
+    pub periodic: bool,
+}
+
+/// The arrays as stored, for a copy of the fluid on another processor (`crate::device`): read
+/// and written at output steps, never during the CPU's own step.
+impl<T: Real> Fluid<T> {
+    /// Distance between the starts of consecutive direction arrays (and force components).
+    pub(crate) fn stride(&self) -> usize {
+        self.stride
+    }
+
+    /// The padded populations `f[q·stride + n]`.
+    pub(crate) fn raw_populations(&self) -> &[T] {
+        &self.f
+    }
+
+    /// The padded populations, to overwrite with a copy of the same step; the time set with it.
+    pub(crate) fn raw_populations_mut(&mut self, time: u64) -> &mut [T] {
+        self.time = time;
+        &mut self.f
+    }
+
+    /// The padded force density field `force[a·stride + n]` (empty while off).
+    pub(crate) fn raw_force(&self) -> &[T] {
+        &self.force
+    }
+
+    /// Per padded node: ghost or obstacle (never collided).
+    pub(crate) fn raw_solid(&self) -> &[bool] {
+        &self.solid
+    }
+
+    /// The periodic links, then the bounce-back links (walls and obstacles).
+    pub(crate) fn raw_links(&self) -> impl Iterator<Item = LinkView<T>> + '_ {
+        let view =
+            |l: &Link<T>, periodic: bool| LinkView { own: l.own, ghost: l.ghost, term: l.term, periodic };
+        self.periodic
+            .iter()
+            .map(move |l| view(l, true))
+            .chain(self.bounce.iter().map(move |l| view(l, false)))
+    }
+
+    /// The relaxation rates in the storage precision.
+    pub(crate) fn raw_rates(&self) -> Rates<T> {
+        self.rates
+    }
+
+    /// The uniform body force in the storage precision.
+    pub(crate) fn raw_body(&self) -> [T; 3] {
+        self.body
+    }
+}

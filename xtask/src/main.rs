@@ -3,7 +3,9 @@
 //! Std only, and no dependency on `slurry`, so that it builds in seconds on a fresh machine
 //! (before the system libraries `slurry` links are even installed).
 //!
-//! - `setup`: installs the system packages the build needs (libhdf5-dev, pkg-config) if missing.
+//! - `setup`: installs the system packages the build and the tests need if missing: libhdf5-dev
+//!   and pkg-config (the hdf5 crate), libvulkan1 (the Vulkan loader) and mesa-vulkan-drivers
+//!   (lavapipe, the CPU's Vulkan driver, on which the device backend's tests run without a GPU).
 //! - `ci`: the test command (`.ci/run`): tidy, setup, fmt, clippy, rustdoc, tests, verification
 //!   (quick tier).
 //! - `tidy`: the repository's rules as code (imports against ARCHITECTURE.md's module table,
@@ -34,7 +36,7 @@ commands:
   reproduce CASE [--scale S] [--revolutions R] [--until-steady CAP] [--bed dry|wet] [--quick] [--out DIR] [--resume] [--all]
                    setup, then the paper's case CASE (pbt-ld2, ...): bed, run, statistics,
                    figures and report.md (default: scale 1/4 to steady state, 1–2.5 h on 2 cores)
-  setup            install libhdf5-dev and pkg-config with apt-get if missing
+  setup            install libhdf5-dev, pkg-config, libvulkan1 and mesa-vulkan-drivers with apt-get if missing
   bench [--quick] [--no-peer] [ARGS]
                    fused-kernel MLUPS beside membw.sh and the lbmpy peer; ARGS go to `slurry bench`
   bench --coupled [--scales 0.25,0.5,1] [--cases pbt-ld2,...] [--steps N] [--warmup N]
@@ -181,13 +183,53 @@ fn is_root() -> bool {
         .unwrap_or(false)
 }
 
-/// Installs libhdf5-dev and pkg-config with apt-get unless pkg-config already finds hdf5.
+/// Whether the Vulkan loader (`libvulkan.so.1`) is installed.
+fn vulkan_loader_found() -> bool {
+    Command::new("ldconfig")
+        .arg("-p")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).contains("libvulkan.so.1"))
+        .unwrap_or(false)
+        || [
+            "/usr/lib/x86_64-linux-gnu/libvulkan.so.1",
+            "/usr/lib/aarch64-linux-gnu/libvulkan.so.1",
+            "/usr/lib/libvulkan.so.1",
+        ]
+        .iter()
+        .any(|p| Path::new(p).exists())
+}
+
+/// Whether a Vulkan driver is registered (an ICD manifest: a GPU's driver, or lavapipe).
+fn vulkan_driver_found() -> bool {
+    ["/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d", "/usr/local/share/vulkan/icd.d"].iter().any(|d| {
+        std::fs::read_dir(d)
+            .map(|es| es.flatten().any(|e| e.path().extension().is_some_and(|x| x == "json")))
+            .unwrap_or(false)
+    })
+}
+
+/// Installs with apt-get what is missing of: libhdf5-dev and pkg-config (unless pkg-config
+/// finds hdf5), libvulkan1 (unless the Vulkan loader is there) and mesa-vulkan-drivers (unless
+/// a Vulkan driver is registered: a GPU's own, or lavapipe).
 fn setup() -> Step {
-    if hdf5_found() {
-        println!("hdf5 found by pkg-config: nothing to install");
+    let mut packages = Vec::new();
+    if !hdf5_found() {
+        packages.extend(["libhdf5-dev", "pkg-config"]);
+    }
+    if !vulkan_loader_found() {
+        packages.push("libvulkan1");
+    }
+    if !vulkan_driver_found() {
+        packages.push("mesa-vulkan-drivers");
+    }
+    if packages.is_empty() {
+        println!("hdf5 found by pkg-config, a Vulkan loader and driver found: nothing to install");
         return Ok(());
     }
-    println!("installing libhdf5-dev and pkg-config with apt-get (needed by the hdf5 crate)");
+    println!(
+        "installing {} with apt-get (hdf5 for the hdf5 crate; the Vulkan loader and lavapipe for the device backend)",
+        packages.join(" ")
+    );
     let apt = |args: &[&str]| {
         let mut c = if is_root() {
             Command::new("apt-get")
@@ -200,10 +242,16 @@ fn setup() -> Step {
         c
     };
     run("apt-get update", apt(&["update"]))?;
-    run("apt-get install", apt(&["install", "-y", "libhdf5-dev", "pkg-config"]))?;
-    if hdf5_found() {
-        Ok(())
-    } else {
-        Err(Failed("after installing libhdf5-dev, `pkg-config --exists hdf5` still fails".into()))
+    let mut install = vec!["install", "-y"];
+    install.extend(&packages);
+    run("apt-get install", apt(&install))?;
+    if !hdf5_found() {
+        return Err(Failed("after installing libhdf5-dev, `pkg-config --exists hdf5` still fails".into()));
     }
+    if !vulkan_loader_found() || !vulkan_driver_found() {
+        return Err(Failed(
+            "after installing libvulkan1 and mesa-vulkan-drivers, no Vulkan loader or driver is found".into(),
+        ));
+    }
+    Ok(())
 }
