@@ -59,7 +59,7 @@ use crate::interrupt;
 use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
-    atomic_write_bytes, read_checkpoint, read_state_pack, write_checkpoint, write_fields_h5,
+    atomic_write_bytes, read_checkpoint, read_state_pack, write_checkpoint_from, write_fields_h5,
     write_state_pack, write_xdmf, ParticleAggregates, ParticleHistoryWriter, StatePack, TimeSeriesRow,
     TimeSeriesWriter,
 };
@@ -416,6 +416,9 @@ struct Session<'a, T: Real> {
     /// are not written (the pack holds no loads of the step before, so its torques and forces
     /// would read zero).
     pack_step: Option<u64>,
+    /// The step the run's history starts after (its checkpoints record it): the state pack's
+    /// step for a run started from one, else 0.
+    history_from: u64,
 }
 
 /// What the stepping loop measured, for the summary.
@@ -469,13 +472,15 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let checkpoint_path = out_dir.join(files::CHECKPOINT);
         let history_path = out_dir.join(files::PARTICLES_H5);
         let fingerprint = case.fingerprint();
+        let mut history_from = if pack.is_some() { solver.fluid().time() } else { 0 };
         let columns = Columns { particles: particles > 0, impeller: impeller.is_some() };
         let (timeseries, max_mach_before) = if opts.resume {
             let relaxed = opts.switch_contacts.then_some(case);
-            restore(&mut solver, &checkpoint_path, &fingerprint, relaxed, out_dir)?;
+            history_from = restore(&mut solver, &checkpoint_path, &fingerprint, relaxed, out_dir)?;
             // Before any file is changed: the history must reach the checkpoint.
             let particles_path = (!inits.is_empty()).then_some(history_path.as_path());
-            check_history(&timeseries_path, particles_path, solver.fluid().time(), case, opts.quiet)?;
+            let step = solver.fluid().time();
+            check_history(&timeseries_path, particles_path, step, history_from, case, opts.quiet)?;
             let timeseries =
                 TimeSeriesWriter::resume(&timeseries_path, solver.fluid().time()).map_err(|e| {
                     BadResume(format!(
@@ -533,6 +538,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             max_mach_before,
             resumed_at,
             pack_step,
+            history_from,
         })
     }
 
@@ -720,16 +726,34 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         match &self.solver {
             Solver::Fluid(f) => {
                 let state = f.snapshot().context("checkpoint at an odd step")?;
-                write_checkpoint(&self.checkpoint_path, &state, None, &self.fingerprint)
+                write_checkpoint_from(
+                    &self.checkpoint_path,
+                    &state,
+                    None,
+                    &self.fingerprint,
+                    self.history_from,
+                )
             }
             Solver::Coupled(c) => {
                 let state = c.snapshot().context("checkpoint at an odd step")?;
-                write_checkpoint(&self.checkpoint_path, &state.fluid, Some(&state.bodies), &self.fingerprint)
+                write_checkpoint_from(
+                    &self.checkpoint_path,
+                    &state.fluid,
+                    Some(&state.bodies),
+                    &self.fingerprint,
+                    self.history_from,
+                )
             }
             // The host mirror, synced at this step: the same checkpoint as a CPU run's.
             Solver::Device { host, .. } => {
                 let state = host.snapshot().context("checkpoint at an odd step")?;
-                write_checkpoint(&self.checkpoint_path, &state, None, &self.fingerprint)
+                write_checkpoint_from(
+                    &self.checkpoint_path,
+                    &state,
+                    None,
+                    &self.fingerprint,
+                    self.history_from,
+                )
             }
         }
         .with_context(|| format!("cannot write {}", self.checkpoint_path.display()))
@@ -792,6 +816,7 @@ fn check_history(
     timeseries: &Path,
     particles: Option<&Path>,
     step: u64,
+    history_from: u64,
     case: &Case,
     quiet: bool,
 ) -> Result<(), BadResume> {
@@ -799,7 +824,8 @@ fn check_history(
         // Reported by the time series' own reopening, as before.
         return Ok(());
     }
-    let repair = crate::io::history::check_resume_history(timeseries, particles, step, case.run.output_every)
+    let every = case.run.output_every;
+    let repair = crate::io::history::check_resume_history(timeseries, particles, step, every, history_from)
         .map_err(|e| BadResume(format!("cannot resume: {e}")))?;
     if !quiet && repair.rows_after + repair.frames_after > 0 {
         let frames = particles
@@ -819,13 +845,14 @@ fn check_history(
 /// with `fingerprint` (and, for a coupled solver, hold the bodies' states). With `relaxed`
 /// (the case, on a contact-scheme switch, [`RunOptions::switch_contacts`]) a checkpoint of the
 /// same case up to the contact scheme ([`Case::same_except_contact_scheme`]) is accepted too.
+/// Returns the step the run's history starts after ([`crate::io::Checkpoint::history_from`]).
 fn restore<T: Real + hdf5::H5Type>(
     solver: &mut Solver<T>,
     path: &Path,
     fingerprint: &str,
     relaxed: Option<&Case>,
     out_dir: &Path,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<u64> {
     let no_checkpoint = || {
         format!(
             "no checkpoint in {} (the run wrote none yet, or it is not a slurry checkpoint)",
@@ -842,6 +869,7 @@ fn restore<T: Real + hdf5::H5Type>(
             _ => BadResume(format!("{}: {} cannot be read as one", no_checkpoint(), path.display())),
         }
     })?;
+    let history_from = checkpoint.history_from;
     let switched = || relaxed.is_some_and(|c| c.same_except_contact_scheme(&checkpoint.case));
     if checkpoint.case != fingerprint && !switched() {
         let also = if relaxed.is_some() {
@@ -869,7 +897,7 @@ fn restore<T: Real + hdf5::H5Type>(
             c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
         }
     }
-    Ok(())
+    Ok(history_from)
 }
 
 /// A state pack of `fluid` at its present (even) step, with `bodies`' states (exact), the

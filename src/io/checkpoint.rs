@@ -5,7 +5,9 @@
 //! field is on (runs with particles or an impeller: the last step's IBM forcing, which the
 //! velocity's half-force term at the checkpoint's step needs, so that the outputs of a run
 //! resumed there equal the uninterrupted run's; checkpoints written before it was stored
-//! restore with a zero field, exact for every later step). Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, and `case`: a
+//! restore with a zero field, exact for every later step). Root attributes: `time_step`, `precision`, `nx`, `ny`, `nz`, `history_from` (only in
+//! the checkpoints of a run started from a state pack: the pack's step, after which its
+//! history starts), and `case`: a
 //! fingerprint of the case (its normalised TOML without `run.steps`, so that a run can be
 //! extended) which a resume compares before it restores anything. With particles, `/bodies`
 //! is `f64[P][26]`: one row of [`BODY_STATE_LEN`] numbers per body, laid out (and read back)
@@ -86,6 +88,9 @@ pub struct Checkpoint<T> {
     pub bodies: Option<Vec<BodyState>>,
     /// The case fingerprint stored with it.
     pub case: String,
+    /// The step the run's history starts after: the state pack's step for a run started from
+    /// one (root attribute `history_from`), 0 (absent) for a run from its initial state.
+    pub history_from: u64,
 }
 
 /// A checkpoint written with another storage precision than the case asks for.
@@ -107,6 +112,19 @@ pub fn write_checkpoint<T: Real + hdf5::H5Type>(
     state: &FluidState<T>,
     bodies: Option<&[BodyState]>,
     case: &str,
+) -> Result<(), FieldsError> {
+    write_checkpoint_from(path, state, bodies, case, 0)
+}
+
+/// [`write_checkpoint`] of a run whose history starts after step `history_from` (a run
+/// started from a state pack; [`Checkpoint::history_from`]): the attribute is written, and
+/// checksummed, only when it is not 0, so a run from its initial state writes the same file.
+pub fn write_checkpoint_from<T: Real + hdf5::H5Type>(
+    path: &Path,
+    state: &FluidState<T>,
+    bodies: Option<&[BodyState]>,
+    case: &str,
+    history_from: u64,
 ) -> Result<(), FieldsError> {
     let g = state.grid;
     atomic_write(path, |tmp| -> Result<(), FieldsError> {
@@ -132,7 +150,11 @@ pub fn write_checkpoint<T: Real + hdf5::H5Type>(
                 .create("bodies")?;
             d.write_raw(flat)?;
         }
-        let sum = state_checksum(&case.replace('\0', " "), state, flat.as_deref());
+        if history_from > 0 {
+            file.new_attr::<u64>().shape(()).create("history_from")?.write_scalar(&history_from)?;
+        }
+        let sum =
+            state_checksum(&checksummed_case(&case.replace('\0', " "), history_from), state, flat.as_deref());
         file.new_attr::<VarLenUnicode>().shape(()).create("checksum")?.write_scalar(&text(&sum))?;
         file.close()?;
         Ok(())
@@ -179,12 +201,16 @@ pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Ch
     };
     let state = FluidState { time: get("time_step")?, grid, populations, force };
     let case = file.attr("case")?.read_scalar::<VarLenUnicode>()?.to_string();
+    let history_from = match file.attr("history_from") {
+        Ok(a) => a.read_scalar::<u64>()?,
+        Err(_) => 0,
+    };
     match file.attr("checksum") {
         Ok(a) => {
             let stored = a.read_scalar::<VarLenUnicode>()?.to_string();
             let rows: Option<Vec<f64>> =
                 bodies.as_ref().map(|b: &Vec<BodyState>| b.iter().flat_map(body_to_row).collect());
-            let computed = state_checksum(&case, &state, rows.as_deref());
+            let computed = state_checksum(&checksummed_case(&case, history_from), &state, rows.as_deref());
             if stored != computed {
                 return Err(Corrupt {
                     file: path.to_path_buf(),
@@ -205,7 +231,17 @@ pub fn read_checkpoint<T: Real + hdf5::H5Type>(path: &Path) -> anyhow::Result<Ch
             path.display()
         ),
     }
-    Ok(Checkpoint { bodies, state, case })
+    Ok(Checkpoint { bodies, state, case, history_from })
+}
+
+/// The case text the checksum covers: the fingerprint, and `history_from` after it when it is
+/// not 0 (so checkpoints without it keep their checksums).
+fn checksummed_case(case: &str, history_from: u64) -> std::borrow::Cow<'_, str> {
+    if history_from == 0 {
+        std::borrow::Cow::Borrowed(case)
+    } else {
+        std::borrow::Cow::Owned(format!("{case}\nhistory_from {history_from}"))
+    }
 }
 
 /// The checksum of a checkpoint (module docs), `blake3:HEX`: the hash of the precision, the
@@ -293,6 +329,26 @@ mod tests {
         assert_eq!(back.state, state);
         assert_eq!(checkpoint_time_step(&path).unwrap(), 4, "the step, without the state");
         assert!(checkpoint_time_step(&dir.path().join("none.h5")).is_err());
+    }
+
+    /// A run started from a state pack records the pack's step; it reads back, and is covered
+    /// by the checksum (a checkpoint without it keeps the checksum it had).
+    #[test]
+    fn history_from_is_kept_and_checksummed() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("checkpoint.h5");
+        let state = FluidState::<f64> {
+            time: 40,
+            grid: Grid::new(2, 2, 2),
+            populations: vec![0.5; Q * 8],
+            force: None,
+        };
+        write_checkpoint_from(&path, &state, None, "case", 20).unwrap();
+        assert_eq!(read_checkpoint::<f64>(&path).unwrap().history_from, 20);
+        write_checkpoint(&path, &state, None, "case").unwrap();
+        assert_eq!(read_checkpoint::<f64>(&path).unwrap().history_from, 0);
+        assert_ne!(checksummed_case("case", 20), checksummed_case("case", 0));
+        assert_eq!(checksummed_case("case", 0), "case");
     }
 
     /// One bit flipped in the populations after the write is found on read, as corruption.

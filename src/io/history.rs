@@ -10,6 +10,8 @@
 //! Expected at or before `S`: a time-series row at every multiple of `output_every` (and
 //! possibly at other steps, where an earlier session of the run ended), in increasing order
 //! without repeats; with particles, one frame at the step of each such row, no more, no fewer.
+//! A run started from a state pack at step `P` has its history from the first output step
+//! after `P` (its checkpoints record `P`, [`super::checkpoint::Checkpoint::history_from`]).
 
 use std::path::Path;
 
@@ -54,12 +56,16 @@ fn first_disorder(steps: &[u64]) -> Option<(u64, u64)> {
     steps.windows(2).find(|w| w[1] <= w[0]).map(|w| (w[0], w[1]))
 }
 
-/// The missing ones among the multiples of `every` in `0..=last`: `(count, first, last)`.
-fn missing_outputs(have: &[u64], every: u64, last: u64) -> Option<(u64, u64, u64, u64)> {
-    let expected = last / every + 1;
+/// The missing ones among the multiples of `every` in `0..=last`, or in `from + 1..=last` when
+/// `from > 0` (a run started from a state pack at step `from` has no rows up to it):
+/// `(count, expected, first, last)`.
+fn missing_outputs(have: &[u64], every: u64, from: u64, last: u64) -> Option<(u64, u64, u64, u64)> {
+    let every = every.max(1);
+    let first = if from == 0 { 0 } else { (from / every + 1) * every };
+    let expected = if last < first { 0 } else { (last - first) / every + 1 };
     let mut missing = (0u64, u64::MAX, 0u64);
     let mut k = 0usize;
-    for m in (0..=last).step_by(every.max(1) as usize) {
+    for m in (first..=last).step_by(every as usize) {
         while k < have.len() && have[k] < m {
             k += 1;
         }
@@ -81,7 +87,8 @@ fn steps_range(count: u64, expected: u64, first: u64, last: u64) -> String {
 
 /// Checks that the time series at `timeseries` and, with particles, the particle history at
 /// `particles` (`particles.h5` and its segments) reach the checkpoint's step `step` for output
-/// every `output_every` steps (module docs). Changes nothing.
+/// every `output_every` steps (module docs), from step 0, or, for a run started from a state
+/// pack at step `from > 0`, from the first output step after it. Changes nothing.
 ///
 /// # Errors
 /// A message naming the file and the missing (or repeated) steps, and the remedy.
@@ -90,6 +97,7 @@ pub fn check_resume_history(
     particles: Option<&Path>,
     step: u64,
     output_every: u64,
+    from: u64,
 ) -> Result<HistoryRepair, String> {
     let remedy = "the history cannot be computed again from the checkpoint: restore the file from a copy, \
                   or start over with --overwrite";
@@ -104,7 +112,7 @@ pub fn check_resume_history(
             timeseries.display()
         ));
     }
-    if let Some((count, expected, first, last)) = missing_outputs(rows, output_every, step) {
+    if let Some((count, expected, first, last)) = missing_outputs(rows, output_every, from, step) {
         return Err(format!(
             "{}: no rows for {} up to the checkpoint's step {step} (the last row kept is {}); {remedy}",
             timeseries.display(),
@@ -162,19 +170,37 @@ mod tests {
     fn rows_past_the_checkpoint_are_a_repair_and_gaps_are_refused() {
         let dir = tempfile::tempdir().unwrap();
         let p = series(dir.path(), &[0, 10, 20, 30, 40], "50,5");
-        assert_eq!(check_resume_history(&p, None, 20, 10).unwrap().rows_after, 2);
+        assert_eq!(check_resume_history(&p, None, 20, 10, 0).unwrap().rows_after, 2);
         // An earlier session's end between outputs is allowed.
         let p = series(dir.path(), &[0, 10, 15, 20], "");
-        assert_eq!(check_resume_history(&p, None, 20, 10).unwrap(), HistoryRepair::default());
+        assert_eq!(check_resume_history(&p, None, 20, 10, 0).unwrap(), HistoryRepair::default());
         // Truncated: rows 30 and 40 missing before a checkpoint at 40.
         let p = series(dir.path(), &[0, 10, 20], "3");
-        let e = check_resume_history(&p, None, 40, 10).unwrap_err();
+        let e = check_resume_history(&p, None, 40, 10, 0).unwrap_err();
         assert!(
             e.contains("steps 30 to 40 (2 of the 5 output steps)") && e.contains("last row kept is step 20"),
             "{e}"
         );
         let p = series(dir.path(), &[0, 10, 20, 10, 20], "");
-        let e = check_resume_history(&p, None, 20, 10).unwrap_err();
+        let e = check_resume_history(&p, None, 20, 10, 0).unwrap_err();
         assert!(e.contains("step 10 follows the row of step 20"), "{e}");
+    }
+
+    /// A run started from a state pack at step 20 has rows from 30 on: none are expected
+    /// before, and one missing after is still a gap.
+    #[test]
+    fn a_run_from_a_pack_has_rows_from_after_the_pack() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = series(dir.path(), &[30, 40, 50], "");
+        assert_eq!(check_resume_history(&p, None, 50, 10, 20).unwrap(), HistoryRepair::default());
+        assert_eq!(check_resume_history(&p, None, 20, 10, 20).unwrap().rows_after, 3);
+        let e = check_resume_history(&p, None, 50, 10, 0).unwrap_err();
+        assert!(e.contains("steps 0 to 20 (3 of the 6 output steps)"), "{e}");
+        let p = series(dir.path(), &[30, 50], "");
+        let e = check_resume_history(&p, None, 50, 10, 20).unwrap_err();
+        assert!(e.contains("step 40 (1 of the 3 output steps)"), "{e}");
+        // A pack between outputs: the first row expected is the next multiple.
+        let p = series(dir.path(), &[30, 40], "");
+        assert_eq!(check_resume_history(&p, None, 40, 10, 25).unwrap(), HistoryRepair::default());
     }
 }

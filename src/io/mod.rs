@@ -37,8 +37,8 @@ pub mod xdmf;
 
 pub use atomic::{atomic_write, atomic_write_bytes, remove_stale_temps};
 pub use checkpoint::{
-    body_from_row, body_to_row, checkpoint_time_step, read_checkpoint, write_checkpoint, Checkpoint,
-    BODY_STATE_LEN,
+    body_from_row, body_to_row, checkpoint_time_step, read_checkpoint, write_checkpoint,
+    write_checkpoint_from, Checkpoint, BODY_STATE_LEN,
 };
 pub use fields::{hdf5_message, io_message, write_fields_h5, FieldsError};
 pub use particles::{
