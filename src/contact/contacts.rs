@@ -13,7 +13,7 @@ use crate::rigid::{Marker, RigidBody, Vec3};
 
 use super::broad::BroadPhase;
 use super::force::Pose;
-use super::implicit::Implicit;
+use super::implicit::{Implicit, ImplicitSolver};
 use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
 use super::operator::{lubrication_loads, velocity, Mat6, PairOperator, Vec6};
 use super::params::{ContactParamError, ContactParams, Walls};
@@ -417,6 +417,25 @@ impl Contacts {
             &mut self.lubrication,
         );
         self.implicit.unknowns
+    }
+
+    /// With implicit damping: the time spent so far in its solves, `(assembly, factorisation
+    /// and solve)` in seconds, and the free bodies in the last solve (benchmarks).
+    pub fn implicit_solve_time(&self) -> (f64, f64, usize) {
+        let [a, s] = self.implicit.seconds;
+        (a, s, self.implicit.unknowns)
+    }
+
+    /// Chooses the linear solver of the implicit damping (default
+    /// [`ImplicitSolver::Cholesky`]; benchmarks: the two agree to the conjugate gradients'
+    /// tolerance).
+    pub fn set_implicit_solver(&mut self, solver: ImplicitSolver) {
+        self.implicit.solver = solver;
+    }
+
+    /// Conjugate-gradient iterations of the implicit damping so far.
+    pub fn implicit_cg_iterations(&self) -> u64 {
+        self.implicit.iterations
     }
 
     /// The per-body velocities of the last implicit solve (tests).

@@ -33,9 +33,28 @@ use super::slots::Slot;
 /// No unknown (a body that is not free or has no lubricated contact).
 const NONE: u32 = u32::MAX;
 
+/// The linear solver of the implicit damping ([`super::Contacts::set_implicit_solver`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ImplicitSolver {
+    /// faer's sparse Cholesky factorisation (approximate minimum degree ordering), sequential:
+    /// exact to round-off.
+    #[default]
+    Cholesky,
+    /// Conjugate gradients with a block-Jacobi preconditioner (each free body's 6 × 6 diagonal
+    /// block), serial, to a relative residual of [`CG_TOLERANCE`].
+    ConjugateGradient,
+}
+
+/// The relative residual `|b − A x|/|b|` at which [`ImplicitSolver::ConjugateGradient`] stops.
+pub const CG_TOLERANCE: f64 = 1e-12;
+
 /// The buffers of the implicit damping solve (module docs), kept between sub-steps.
 #[derive(Debug, Default)]
 pub(crate) struct Implicit {
+    /// Which linear solver.
+    pub(crate) solver: ImplicitSolver,
+    /// Iterations of the conjugate gradients, summed over the solves.
+    pub(crate) iterations: u64,
     /// Per body: its block among the unknowns, or [`NONE`].
     index: Vec<u32>,
     /// Per unknown: its body.
@@ -48,6 +67,9 @@ pub(crate) struct Implicit {
     triplets: Vec<Triplet<usize, usize, f64>>,
     /// Unknowns of the last solve (blocks of 6).
     pub(crate) unknowns: usize,
+    /// Time spent in the assembly and the factorisation and solve, summed over the solves
+    /// (benchmarks: [`super::Contacts::implicit_solve_time`]).
+    pub(crate) seconds: [f64; 2],
 }
 
 /// Whether a pair's (or a wall's) slot has a contact whose operator is valid (module
@@ -90,6 +112,7 @@ impl Implicit {
         known: &[Vec6],
         v: &mut [Vec6],
     ) {
+        let t0 = std::time::Instant::now();
         let n = bodies.len();
         self.index.clear();
         self.index.resize(n, NONE);
@@ -111,6 +134,7 @@ impl Implicit {
         let m = self.body.len();
         self.unknowns = m;
         if m == 0 {
+            self.seconds[0] += t0.elapsed().as_secs_f64();
             return;
         }
         self.diag.clear();
@@ -171,16 +195,86 @@ impl Implicit {
                 }
             }
         }
+        let t1 = std::time::Instant::now();
+        self.seconds[0] += (t1 - t0).as_secs_f64();
+        if self.solver == ImplicitSolver::ConjugateGradient {
+            let x = self.conjugate_gradient();
+            for (i, &b) in self.body.iter().enumerate() {
+                v[b as usize] = x[i];
+            }
+            self.seconds[1] += t1.elapsed().as_secs_f64();
+            return;
+        }
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(6 * m, 6 * m, &self.triplets)
             .expect("the damping matrix's triplets are in range and distinct");
         let llt = a.sp_cholesky(Side::Lower).unwrap_or_else(|e| {
-            panic!("implicit damping: M/h + C is not positive definite ({e:?}); non-finite loads or velocities?")
+            panic!(
+                "implicit damping: M/h + C is not positive definite ({e:?}); non-finite loads or velocities?"
+            )
         });
         let mut x = Mat::<f64>::from_fn(6 * m, 1, |r, _| self.rhs[r / 6][r % 6]);
         llt.solve_in_place(x.as_mut());
         for (i, &b) in self.body.iter().enumerate() {
             v[b as usize] = Vec6::from_fn(|r, _| x[(6 * i + r, 0)]);
         }
+        self.seconds[1] += t1.elapsed().as_secs_f64();
+    }
+
+    /// `A x` with `A = M/h + C` as assembled (diagonal blocks, then the off-diagonal blocks in
+    /// assembly order: a fixed order).
+    fn apply(&self, x: &[Vec6], y: &mut [Vec6]) {
+        for ((y, d), x) in y.iter_mut().zip(&self.diag).zip(x) {
+            *y = d * x;
+        }
+        for &(i, j, ref blk) in &self.off {
+            let (i, j) = (i as usize, j as usize);
+            y[i] += blk * x[j];
+            y[j] += blk.tr_mul(&x[i]);
+        }
+    }
+
+    /// Block-Jacobi preconditioned conjugate gradients from `x = 0` to a relative residual of
+    /// [`CG_TOLERANCE`], serial (every sum in a fixed order).
+    fn conjugate_gradient(&mut self) -> Vec<Vec6> {
+        let m = self.diag.len();
+        let inv: Vec<Mat6> = self
+            .diag
+            .iter()
+            .map(|d| {
+                let sym = (d + d.transpose()) * 0.5;
+                sym.cholesky().expect("M/h + C_aa is positive definite").inverse()
+            })
+            .collect();
+        let dot = |a: &[Vec6], b: &[Vec6]| a.iter().zip(b).map(|(x, y)| x.dot(y)).sum::<f64>();
+        let mut x = vec![Vec6::zeros(); m];
+        let mut r = self.rhs.clone();
+        let mut z: Vec<Vec6> = inv.iter().zip(&r).map(|(p, r)| p * r).collect();
+        let mut p = z.clone();
+        let mut ap = vec![Vec6::zeros(); m];
+        let mut rz = dot(&r, &z);
+        let stop = CG_TOLERANCE * CG_TOLERANCE * dot(&self.rhs, &self.rhs);
+        for _ in 0..(6 * m).max(1) {
+            if dot(&r, &r) <= stop {
+                break;
+            }
+            self.iterations += 1;
+            self.apply(&p, &mut ap);
+            let alpha = rz / dot(&p, &ap);
+            for k in 0..m {
+                x[k] += p[k] * alpha;
+                r[k] -= ap[k] * alpha;
+            }
+            for k in 0..m {
+                z[k] = inv[k] * r[k];
+            }
+            let rz1 = dot(&r, &z);
+            let beta = rz1 / rz;
+            rz = rz1;
+            for k in 0..m {
+                p[k] = z[k] + p[k] * beta;
+            }
+        }
+        x
     }
 
     /// The damping matrix `C` of the last [`Implicit::solve`] as a dense matrix over its
@@ -225,8 +319,20 @@ mod tests {
                 .with_velocities(v, w)
         };
         let bodies = vec![
-            body(10.0, tilt(0.05), Motion::Free, Vec3::new(0.01, -0.004, -0.006), Vec3::new(0.001, 0.003, -0.002)),
-            body(16.3, tilt(-0.03), Motion::Free, Vec3::new(-0.02, 0.003, 0.001), Vec3::new(-0.002, 0.001, 0.004)),
+            body(
+                10.0,
+                tilt(0.05),
+                Motion::Free,
+                Vec3::new(0.01, -0.004, -0.006),
+                Vec3::new(0.001, 0.003, -0.002),
+            ),
+            body(
+                16.3,
+                tilt(-0.03),
+                Motion::Free,
+                Vec3::new(-0.02, 0.003, 0.001),
+                Vec3::new(-0.002, 0.001, 0.004),
+            ),
             body(
                 3.75,
                 tilt(0.02),
@@ -293,6 +399,30 @@ mod tests {
         }
     }
 
+    /// The block-Jacobi conjugate gradients give the Cholesky solution to their tolerance.
+    #[test]
+    fn conjugate_gradient_agrees_with_cholesky() {
+        let (bodies, markers, walls) = scene();
+        let solve = |solver: ImplicitSolver| {
+            let mut ct = Contacts::new(implicit(), walls, &bodies, &markers).unwrap();
+            ct.set_implicit_solver(solver);
+            ct.compute(&bodies, &markers);
+            ct.known =
+                (0..bodies.len()).map(|i| Vec6::from_fn(|r, _| 0.01 * ((i * 6 + r) as f64).cos())).collect();
+            ct.implicit_damping(&bodies, 0.5, 0.0);
+            (ct.solved_velocities().to_vec(), ct.implicit_cg_iterations())
+        };
+        let (chol, none) = solve(ImplicitSolver::Cholesky);
+        let (cg, iterations) = solve(ImplicitSolver::ConjugateGradient);
+        assert_eq!(none, 0);
+        assert!(iterations > 1 && iterations <= 18, "{iterations} iterations for 18 unknowns");
+        let scale = chol.iter().map(|v| v.norm()).fold(0.0, f64::max);
+        for (a, b) in chol.iter().zip(&cg) {
+            // The residual tolerance 1e-12 times the condition number of M/h + C (≈ 1e2 here).
+            assert!((a - b).norm() <= 1e-9 * scale, "{a} vs {b}");
+        }
+    }
+
     /// Fluid steps of the scene under the implicit scheme are bitwise the same with 1 and 2
     /// threads; two free cylinders alone (no wall, no kinematic body) keep their total momentum
     /// to round-off.
@@ -307,7 +437,9 @@ mod tests {
                 for _ in 0..3 {
                     ct.advance(&mut bs, &markers, 2);
                 }
-                bs.iter().map(|b| (b.position, b.velocity, b.angular_velocity, b.orientation)).collect::<Vec<_>>()
+                bs.iter()
+                    .map(|b| (b.position, b.velocity, b.angular_velocity, b.orientation))
+                    .collect::<Vec<_>>()
             })
         };
         assert_eq!(run(1), run(2), "bitwise the same for 1 and 2 threads");

@@ -340,6 +340,7 @@ mod slots;
 mod subcycle;
 
 pub use contacts::Contacts;
+pub use implicit::{ImplicitSolver, CG_TOLERANCE};
 pub use list::DEFAULT_SKIN;
 pub use oracle::{brute_force, OracleResult};
 pub use params::{ContactParamError, ContactParams, Damping, Walls, LUBRICATION_SUBSTEPS_MAX};
