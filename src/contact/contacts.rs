@@ -427,8 +427,8 @@ impl Contacts {
     }
 
     /// Chooses the linear solver of the implicit damping (default
-    /// [`ImplicitSolver::Cholesky`]; benchmarks: the two agree to the conjugate gradients'
-    /// tolerance).
+    /// [`ImplicitSolver::ConjugateGradient`]; benchmarks: the two agree to the conjugate
+    /// gradients' tolerance).
     pub fn set_implicit_solver(&mut self, solver: ImplicitSolver) {
         self.implicit.solver = solver;
     }
