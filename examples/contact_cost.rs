@@ -9,14 +9,18 @@
 //! placement (φ = 0.148 of the box, seeded), then dry settling under a strong gravity with a
 //! linear drag (terminal speed 0.05) and Table 1's contacts until the largest speed is below
 //! 1e-3 (or 6000 steps). Then one fluid step's worth of contacts, `Contacts::advance` with the
-//! default sub-steps, is timed (best of 5), with the number of touching pairs and marker pairs.
+//! default sub-steps, is timed (best of 5), with the number of touching pairs and marker pairs;
+//! then the same with the damping implicit at `IMPLICIT_SUBSTEPS` (and the share of its sparse
+//! solve).
 //! Compare with the fluid step (`cargo xtask bench`: 88 ms at full scale, 2 threads).
 
 use std::sync::Arc;
 use std::time::Instant;
 
 use slurry::case::Case;
-use slurry::contact::{ContactParams, Contacts, Walls, DEFAULT_SUBSTEPS};
+use slurry::contact::{
+    ContactParams, Contacts, Damping, ImplicitSolver, Walls, DEFAULT_SUBSTEPS, IMPLICIT_SUBSTEPS,
+};
 use slurry::rigid::{Marker, Vec3};
 
 fn main() {
@@ -118,4 +122,38 @@ fn main() {
         st.marker_pairs,
         st.wall_contacts
     );
+    for solver in [ImplicitSolver::Cholesky, ImplicitSolver::ConjugateGradient] {
+        let implicit = ContactParams { damping: Damping::Implicit, ..ContactParams::default() };
+        let mut ci = Contacts::new(implicit, walls, &bodies, &markers).expect("valid parameters");
+        ci.set_implicit_solver(solver);
+        if let Some(skin) = skin {
+            ci.set_skin(skin);
+        }
+        let saved = bodies.clone();
+        ci.advance(&mut bodies, &markers, IMPLICIT_SUBSTEPS);
+        bodies = saved;
+        let mut best = (f64::INFINITY, 0.0, 0.0);
+        let it0 = ci.implicit_cg_iterations();
+        for _ in 0..5 {
+            let saved = bodies.clone();
+            let before = ci.implicit_solve_time();
+            let t = Instant::now();
+            ci.advance(&mut bodies, &markers, IMPLICIT_SUBSTEPS);
+            let dt = t.elapsed().as_secs_f64();
+            let after = ci.implicit_solve_time();
+            if dt < best.0 {
+                best = (dt, after.0 - before.0, after.1 - before.1);
+            }
+            bodies = saved;
+        }
+        let iterations = (ci.implicit_cg_iterations() - it0) as f64 / (5 * IMPLICIT_SUBSTEPS) as f64;
+        println!(
+            "implicit damping ({IMPLICIT_SUBSTEPS} sub-steps, {solver:?}): {:.1} ms per fluid step, of which assembly \
+             {:.1} ms and the linear solve {:.1} ms; {} free bodies in the solve; {iterations:.1} CG iterations per solve",
+            best.0 * 1e3,
+            best.1 * 1e3,
+            best.2 * 1e3,
+            ci.implicit_solve_time().2
+        );
+    }
 }

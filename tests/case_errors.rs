@@ -386,6 +386,11 @@ fn contact_section_errors_name_key_and_range() {
     rejects(&with("k = -1.0"), &["contacts.k", "-1", "positive"]);
     rejects(&with("substeps = 0"), &["contacts.substeps", "0", "[1, 1024]"]);
     rejects(&with("stiffness = 3.0"), &["contacts.stiffness"]);
+    rejects(&with("damping = \"backward\""), &["damping", "backward", "explicit", "implicit"]);
+    rejects(
+        &with("damping = \"implicit\"\nlubrication_substeps = 4"),
+        &["contacts.lubrication_substeps", "4", "damping = \"implicit\""],
+    );
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("ok.toml");
     std::fs::write(&path, with("")).unwrap();

@@ -43,6 +43,7 @@ fn scheme(text: &str) -> ShadowScheme {
             substeps: Some(num(1).unwrap_or_else(|| panic!("scheme {text}: no sub-step count"))),
             limiter,
             lubrication_substeps: num(2),
+            implicit_damping: false,
         },
     }
 }

@@ -102,6 +102,9 @@ pub struct CoupledBench {
     pub lubrication_limiter: bool,
     /// Lubrication sub-steps per contact sub-step (1: Table 1's law at every evaluation).
     pub lubrication_substeps: usize,
+    /// The damping's integration, `"explicit"` or `"implicit"`
+    /// ([`slurry::contact::ContactParams::damping`]).
+    pub damping: String,
     /// The fluid time step the timed steps started from: the warm-up's end, after the
     /// checkpoint's step when started from one.
     pub start_step: u64,
@@ -122,6 +125,8 @@ pub struct ContactOptions {
     /// Lubrication sub-steps per contact sub-step (default: the case's, 1;
     /// [`slurry::contact::ContactParams::lubrication_substeps`]).
     pub lubrication_substeps: Option<usize>,
+    /// Integrate the damping implicitly ([`slurry::contact::Damping::Implicit`]).
+    pub implicit_damping: bool,
 }
 
 /// A benchmarked case made ready to couple: the stirred case at its scale on its cached bed
@@ -187,6 +192,9 @@ impl Setup {
             p.substeps = contact.substeps.unwrap_or(p.substeps);
             p.lubrication_limiter |= contact.limiter;
             p.lubrication_substeps = contact.lubrication_substeps.unwrap_or(p.lubrication_substeps);
+            if contact.implicit_damping {
+                p.damping = slurry::contact::Damping::Implicit;
+            }
         }
         let mut c =
             Coupled::new(self.fluid()?, bodies, params).map_err(|e| anyhow::anyhow!("cannot couple: {e}"))?;
@@ -307,6 +315,7 @@ pub fn bench_case(
         contact_substeps: params.contacts.map_or(0, |p| p.substeps),
         lubrication_limiter: params.contacts.is_some_and(|p| p.lubrication_limiter),
         lubrication_substeps: params.contacts.map_or(0, |p| p.lubrication_substeps),
+        damping: params.contacts.map_or("", |p| p.damping.name()).to_string(),
         start_step,
         from: from.map(|p| p.display().to_string()),
     })

@@ -234,6 +234,11 @@ pub struct BenchArgs {
     /// (`[contacts] lubrication_substeps`, default 1).
     #[arg(long, value_name = "M")]
     pub lubrication_substeps: Option<usize>,
+    /// With --coupled: integrate the contact damping implicitly (`[contacts] damping =
+    /// "implicit"`: backward Euler, one sparse solve per sub-step; set --contact-substeps too,
+    /// e.g. 2).
+    #[arg(long)]
+    pub implicit_damping: bool,
     /// With --coupled: start from this checkpoint of a reproduction of the case (one case, one
     /// scale; e.g. `run/checkpoint.h5` of a run at steady state) instead of the settled bed.
     #[arg(long, value_name = "CHECKPOINT")]
@@ -301,6 +306,7 @@ fn cmd_bench_coupled(a: &BenchArgs) -> anyhow::Result<()> {
         substeps: a.contact_substeps,
         limiter: a.lubrication_limiter,
         lubrication_substeps: a.lubrication_substeps,
+        implicit_damping: a.implicit_damping,
     };
     let threads = a.fluid.threads.iter().copied().max().unwrap_or(2);
     let pool = thread_pool(NonZeroUsize::new(threads))?;

@@ -213,10 +213,12 @@ impl Case {
             on(p.elastic),
             on(p.lubrication),
             p.substeps,
-            match (p.lubrication_limiter, p.lubrication_substeps) {
-                (true, _) => ", lubrication limiter on".to_string(),
-                (false, 1) => String::new(),
-                (false, m) => format!(", {m} lubrication sub-steps each"),
+            match (p.damping, p.lubrication_limiter, p.lubrication_substeps) {
+                (crate::contact::Damping::Implicit, _, _) =>
+                    ", damping implicit (backward Euler, one sparse solve per sub-step)".to_string(),
+                (_, true, _) => ", lubrication limiter on".to_string(),
+                (_, false, 1) => String::new(),
+                (_, false, m) => format!(", {m} lubrication sub-steps each"),
             }
         );
     }

@@ -218,7 +218,7 @@ impl Case {
     }
 
     /// [`Case::fingerprint`] with the contact scheme's cost settings, `[contacts] substeps`,
-    /// `lubrication_limiter` and `lubrication_substeps`, set to their defaults: what a checkpoint must match for a
+    /// `lubrication_limiter`, `lubrication_substeps` and `damping`, set to their defaults: what a checkpoint must match for a
     /// resume that switches the contact scheme (`RunOptions::switch_contacts`). The model
     /// (Table 1's constants, which parts act) must still match.
     pub fn fingerprint_except_contact_scheme(&self) -> String {
@@ -228,6 +228,7 @@ impl Case {
             p.substeps = d.substeps;
             p.lubrication_limiter = d.lubrication_limiter;
             p.lubrication_substeps = d.lubrication_substeps;
+            p.damping = d.damping;
         }
         c.fingerprint()
     }

@@ -608,4 +608,12 @@ position = [5.0, 5.0, 5.0]
     assert!(d.contains("pitched-blade turbine, 4 blades at 45°"), "{d}");
     assert!(d.contains("N = 0.001 rev/step (1000 steps per revolution), ramp 100 steps"), "{d}");
     assert!(d.contains("k 5, δ0 0.5") && d.contains("4 sub-steps per step"), "{d}");
+    assert!(!d.contains("damping implicit"), "{d}");
+    let mut implicit = c.clone();
+    if let Some(p) = implicit.contacts.as_mut() {
+        p.damping = crate::contact::Damping::Implicit;
+        p.substeps = 2;
+    }
+    let d = implicit.describe();
+    assert!(d.contains("2 sub-steps per step, damping implicit (backward Euler"), "{d}");
 }

@@ -13,6 +13,7 @@ use crate::rigid::{Marker, RigidBody, Vec3};
 
 use super::broad::BroadPhase;
 use super::force::Pose;
+use super::implicit::{Implicit, ImplicitSolver};
 use super::list::{scratch_capacity, Narrow, PairList, Scratch, DEFAULT_SKIN};
 use super::operator::{lubrication_loads, velocity, Mat6, PairOperator, Vec6};
 use super::params::{ContactParamError, ContactParams, Walls};
@@ -72,6 +73,10 @@ pub struct Contacts {
     pub(crate) average: Vec<ContactLoad>,
     /// The lubrication summed over the lubrication sub-steps of a contact sub-step.
     pub(crate) lubrication_sum: Vec<ContactLoad>,
+    /// With implicit damping (module `implicit`): the solve's buffers and, per body, the known
+    /// load of the sub-step (external plus elastic).
+    implicit: Implicit,
+    pub(crate) known: Vec<Vec6>,
 }
 
 impl Contacts {
@@ -141,6 +146,8 @@ impl Contacts {
             external_prev: vec![None; n],
             average: vec![ContactLoad::ZERO; n],
             lubrication_sum: Vec::new(),
+            implicit: Implicit::default(),
+            known: Vec::new(),
         })
     }
 
@@ -200,6 +207,8 @@ impl Contacts {
             + self.external.capacity()
             + self.average.capacity()
             + self.lubrication_sum.capacity()
+            + self.implicit.capacity()
+            + self.known.capacity()
     }
 
     /// Checks that the bodies and markers match those given to [`Contacts::new`].
@@ -309,7 +318,7 @@ impl Contacts {
         }
         let (list, params, poses, scratch) = (&self.list, &self.params, &self.poses, &self.scratch);
         self.stats.candidate_pairs = list.pairs().len();
-        let operators = params.lubrication_substeps > 1;
+        let operators = params.operators();
         let pairs = list.pairs().len();
         self.slots.clear();
         self.slots.resize(pairs, Slot::EMPTY);
@@ -375,6 +384,70 @@ impl Contacts {
             &self.velocities,
             &mut self.lubrication,
         );
+    }
+
+    /// Implicit damping (module `implicit`) over a sub-step of length `h` after an evaluation
+    /// with operators: solves for the velocities at the sub-step's end under the known loads
+    /// `self.known` (free bodies) and the damping of the evaluation's operators (prescribed
+    /// bodies at their velocities `dt` after their clocks), and puts the damping loads at those
+    /// velocities into `self.lubrication`. Returns the number of bodies in the solve.
+    pub(crate) fn implicit_damping(&mut self, bodies: &[RigidBody], h: f64, dt: f64) -> usize {
+        debug_assert_eq!(self.ops.len(), self.list.pairs().len());
+        self.velocities.clear();
+        self.velocities.extend(bodies.iter().map(|b| velocity(b, dt)));
+        self.implicit.solve(
+            bodies,
+            h,
+            self.list.pairs(),
+            &self.ops,
+            &self.slots,
+            &self.wall_ops,
+            &self.wall_slots,
+            &self.known,
+            &mut self.velocities,
+        );
+        self.lubrication.resize(bodies.len(), ContactLoad::ZERO);
+        lubrication_loads(
+            self.list.pairs(),
+            &self.ops,
+            &self.slots,
+            &self.wall_ops,
+            &self.wall_slots,
+            &self.velocities,
+            &mut self.lubrication,
+        );
+        self.implicit.unknowns
+    }
+
+    /// With implicit damping: the time spent so far in its solves, `(assembly, factorisation
+    /// and solve)` in seconds, and the free bodies in the last solve (benchmarks).
+    pub fn implicit_solve_time(&self) -> (f64, f64, usize) {
+        let [a, s] = self.implicit.seconds;
+        (a, s, self.implicit.unknowns)
+    }
+
+    /// Chooses the linear solver of the implicit damping (default
+    /// [`ImplicitSolver::ConjugateGradient`]; benchmarks: the two agree to the conjugate
+    /// gradients' tolerance).
+    pub fn set_implicit_solver(&mut self, solver: ImplicitSolver) {
+        self.implicit.solver = solver;
+    }
+
+    /// Conjugate-gradient iterations of the implicit damping so far.
+    pub fn implicit_cg_iterations(&self) -> u64 {
+        self.implicit.iterations
+    }
+
+    /// The per-body velocities of the last implicit solve (tests).
+    #[cfg(test)]
+    pub(crate) fn solved_velocities(&self) -> &[Vec6] {
+        &self.velocities
+    }
+
+    /// The damping matrix `C` of the last implicit solve, dense, over its unknowns (tests).
+    #[cfg(test)]
+    pub(crate) fn damping_matrix(&self, bodies: &[RigidBody], h: f64) -> nalgebra::DMatrix<f64> {
+        self.implicit.damping_matrix(bodies, h)
     }
 
     /// Sets the skin of the marker-pair list (module `list`; default [`DEFAULT_SKIN`]) and

@@ -61,6 +61,45 @@ pub struct ContactParams {
     /// of checkpoints and cached beds made before it existed stay valid.
     #[serde(skip_serializing_if = "is_one")]
     pub lubrication_substeps: usize,
+    /// How each contact sub-step integrates the lubrication damping (default
+    /// [`Damping::Explicit`]; module [`super`], "Implicit damping"). Written into a case's TOML
+    /// (and so into its fingerprint) only when not the default, so that the fingerprints of
+    /// checkpoints and cached beds made before it existed stay valid.
+    #[serde(skip_serializing_if = "Damping::is_explicit")]
+    pub damping: Damping,
+}
+
+/// How the contact sub-steps integrate Table 1's lubrication damping (`[contacts] damping`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Damping {
+    /// Explicit Euler on the damping (the law evaluated at the current velocities): stable for
+    /// `h · damping_rate < 2`, hence [`super::DEFAULT_SUBSTEPS`] sub-steps.
+    #[default]
+    Explicit,
+    /// Backward Euler on the damping (module [`super`], "Implicit damping"): the damping loads at
+    /// the end-of-sub-step velocities, from one sparse symmetric positive-definite solve per
+    /// sub-step; unconditionally stable, so the sub-step count is set by the spring
+    /// ([`super::IMPLICIT_SUBSTEPS`] recommended).
+    Implicit,
+}
+
+impl Damping {
+    /// The case-file spellings, in words (for error messages).
+    pub const ALLOWED: &'static str = "\"explicit\" or \"implicit\"";
+
+    /// Whether this is [`Damping::Explicit`] (serde: the default is not written).
+    pub fn is_explicit(&self) -> bool {
+        *self == Damping::Explicit
+    }
+
+    /// The case-file spelling.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Damping::Explicit => "explicit",
+            Damping::Implicit => "implicit",
+        }
+    }
 }
 
 /// Whether `n` is 1 (serde: `lubrication_substeps` at its default is not written).
@@ -84,6 +123,7 @@ impl Default for ContactParams {
             lubrication_limiter: false,
             substeps: super::DEFAULT_SUBSTEPS,
             lubrication_substeps: 1,
+            damping: Damping::Explicit,
         }
     }
 }
@@ -143,7 +183,25 @@ impl ContactParams {
                 allowed: "1 when lubrication_limiter = true (the two are alternative treatments of the stiff damping)".into(),
             });
         }
+        if self.damping == Damping::Implicit && (self.lubrication_substeps > 1 || self.lubrication_limiter) {
+            let (name, value) = if self.lubrication_limiter {
+                ("lubrication_limiter", 1.0)
+            } else {
+                ("lubrication_substeps", self.lubrication_substeps as f64)
+            };
+            return Err(ContactParamError {
+                name,
+                value,
+                allowed: "off (lubrication_limiter = false, lubrication_substeps = 1) when damping = \"implicit\" (they are alternative treatments of the stiff damping)".into(),
+            });
+        }
         Ok(())
+    }
+
+    /// Whether an evaluation hands the lubrication on as operators (module `operator`) and
+    /// keeps only the elastic part in its loads: with lubrication sub-steps or implicit damping.
+    pub(crate) fn operators(&self) -> bool {
+        self.lubrication_substeps > 1 || self.damping == Damping::Implicit
     }
 
     /// The normal range of the model: the largest `δ` at which any enabled part acts,
@@ -271,6 +329,26 @@ mod tests {
         let text = toml::to_string(&p).unwrap();
         assert!(text.contains("lubrication_substeps = 4"), "{text}");
         assert_eq!(toml::from_str::<ContactParams>(&text).unwrap(), p);
+    }
+
+    /// `damping`: written only when implicit (fingerprints of earlier cases stay valid), read
+    /// back, refused with the limiter or lubrication sub-steps, its spelling checked by serde.
+    #[test]
+    fn damping_key() {
+        let text = toml::to_string(&ContactParams::default()).unwrap();
+        assert!(!text.contains("damping"), "{text}");
+        let p = ContactParams { damping: Damping::Implicit, substeps: 2, ..Default::default() };
+        p.validate().unwrap();
+        let text = toml::to_string(&p).unwrap();
+        assert!(text.contains("damping = \"implicit\""), "{text}");
+        assert_eq!(toml::from_str::<ContactParams>(&text).unwrap(), p);
+        let e = ContactParams { lubrication_limiter: true, ..p }.validate().unwrap_err();
+        assert_eq!(e.name, "lubrication_limiter");
+        assert!(e.to_string().contains("damping = \"implicit\""), "{e}");
+        let e = ContactParams { lubrication_substeps: 4, ..p }.validate().unwrap_err();
+        assert_eq!(e.name, "lubrication_substeps");
+        let e = toml::from_str::<ContactParams>("damping = \"backward\"").unwrap_err().to_string();
+        assert!(e.contains("backward") && e.contains("explicit") && e.contains("implicit"), "{e}");
     }
 
     #[test]

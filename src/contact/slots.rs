@@ -138,7 +138,7 @@ impl Slot {
             self.mob += h.damping + h.damping_t;
             self.mob_a += rotational_mobility(h, ri, pa);
             self.mob_b += rotational_mobility(h, rj, pb);
-        } else if p.lubrication_substeps > 1 {
+        } else if p.operators() {
             // Lubrication sub-steps: the lubrication goes into the pair's operator (module
             // `operator`), the slot holds the elastic part only.
             let e = &h.elastic;
@@ -168,7 +168,7 @@ impl Slot {
             self.mob += h.damping + h.damping_t;
             self.mob_a += rotational_mobility(h, r, pose);
         } else {
-            let f = if p.lubrication_substeps > 1 { h.elastic } else { h.elastic + h.lub };
+            let f = if p.operators() { h.elastic } else { h.elastic + h.lub };
             self.fa += f;
             self.ta += r.cross(&f);
         }

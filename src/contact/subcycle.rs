@@ -5,6 +5,8 @@ use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
 
 use super::contacts::Contacts;
 use super::force::Pose;
+use super::operator::Vec6;
+use super::params::Damping;
 use super::slots::ContactLoad;
 
 /// One time step `Δt = 1` of `bodies` under external loads, with or without contacts: the one
@@ -119,11 +121,17 @@ impl Contacts {
         self.average.clear();
         self.average.resize(n, ContactLoad::ZERO);
         let m_lub = self.params().lubrication_substeps;
+        let implicit = self.params().damping == Damping::Implicit;
         for k in 0..n_sub {
             self.poses.clear();
             self.poses.extend(bodies.iter().map(|b| Pose::predicted(b, 0.5 * h)));
             let limited = if self.params().lubrication_limiter { h } else { 0.0 };
             self.evaluate(bodies, markers, limited);
+            if implicit {
+                self.implicit_substep(bodies, k, h);
+                observer(k, bodies, &self.loads);
+                continue;
+            }
             if m_lub > 1 {
                 self.lubrication_substeps(bodies, k, h, m_lub);
                 observer(k, bodies, &self.loads);
@@ -198,6 +206,48 @@ impl Contacts {
             self.average[i].torque += c.torque;
         }
         self.lubrication_sum = sum;
+    }
+
+    /// Contact sub-step `k` (of length `h`) with implicit damping (module [`super`], "Implicit
+    /// damping"), after its evaluation: every free body's known load is the external load at
+    /// the sub-step's midpoint plus the evaluation's elastic load; the velocities at the
+    /// sub-step's end solve backward Euler with the evaluation's damping operators (a
+    /// prescribed body's velocity at the midpoint), and each free body steps by `h` under the
+    /// known load plus the damping at those velocities, so that its new velocity is the
+    /// solve's (up to the rotation's gyroscopic term, explicit). The sub-step's load (elastic
+    /// plus damping) is added to `self.average` and left in `self.loads` for the observer.
+    fn implicit_substep(&mut self, bodies: &mut [RigidBody], k: usize, h: f64) {
+        let s = (k as f64 + 0.5) * h;
+        let mut known = std::mem::take(&mut self.known);
+        known.clear();
+        for (i, b) in bodies.iter().enumerate() {
+            let l = if b.is_free() {
+                let ext = self.external_at(i, b, s);
+                let e = self.loads[i];
+                ContactLoad { force: ext.force + e.force, torque: ext.torque + e.torque }
+            } else {
+                ContactLoad::ZERO
+            };
+            known.push(Vec6::new(l.force.x, l.force.y, l.force.z, l.torque.x, l.torque.y, l.torque.z));
+        }
+        self.known = known;
+        self.implicit_damping(bodies, h, 0.5 * h);
+        for (i, b) in bodies.iter_mut().enumerate() {
+            let c = &mut self.loads[i];
+            c.force += self.lubrication[i].force;
+            c.torque += self.lubrication[i].torque;
+            let c = *c;
+            self.average[i].force += c.force;
+            self.average[i].torque += c.torque;
+            if !b.is_free() {
+                b.step(h);
+                continue;
+            }
+            let ext = self.external_at(i, b, s);
+            b.add_force(ext.force + c.force);
+            b.add_torque(ext.torque + c.torque);
+            step_constant(b, h);
+        }
     }
 
     /// Body `i`'s external load at time `s` into the fluid step ([`Contacts::advance`]): its

@@ -33,6 +33,8 @@
 //!   a falling cylinder's momentum budget;
 //! - [`cases::contacts_dry`]: dry collisions with the contacts of Table 1: momentum, energy,
 //!   restitution, closest approach;
+//! - [`cases::implicit_damping`]: backward-Euler contact damping against the explicit scheme
+//!   converged in sub-steps: first order in the sub-step, stable at one sub-step;
 //! - [`cases::wet_lubrication`]: a sphere settling onto a fixed sphere in fluid: it slows before
 //!   contact, never overlaps and comes to rest on the contact;
 //! - [`cases::impeller`]: impellers' marker areas and normals; the single-phase torque budget,

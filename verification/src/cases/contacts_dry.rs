@@ -220,8 +220,13 @@ fn free_body(shape: Arc<dyn Shape>, pos: Vec3, q: Quat, v: Vec3) -> (RigidBody, 
 /// The scene of `setup` at diameter `d` (`ℓ = d` for cylinders), body 0 moving at `speed`
 /// toward body 1 (at rest) or the floor, surfaces `gap` apart.
 fn scene(setup: Setup, d: f64, speed: f64, gap: f64) -> Scene {
+    scene_with_length(setup, d, d, speed, gap)
+}
+
+/// [`scene`] with cylinders of length `length`.
+fn scene_with_length(setup: Setup, d: f64, length: f64, speed: f64, gap: f64) -> Scene {
     let sphere = || Arc::new(Sphere::new(d)) as Arc<dyn Shape>;
-    let cyl = || Arc::new(Cylinder::new(d, d)) as Arc<dyn Shape>;
+    let cyl = || Arc::new(Cylinder::new(d, length)) as Arc<dyn Shape>;
     let id = Quat::identity();
     let two = |s: Arc<dyn Shape>, p1: Vec3, dir: Vec3| {
         let (a, ma) = free_body(s.clone(), Vec3::zeros(), id, dir * speed);
@@ -412,6 +417,42 @@ fn saturated_with(setup: Setup, d: f64, n_sub: usize, m_lub: usize, limiter: boo
     let steps = n_sub * m_lub;
     let g_pred = (1.0 - c / (m_red * steps as f64)).powi(steps as i32);
     (c, m_red, g, g_pred)
+}
+
+/// The saturated contact of `setup` (cylinders of diameter `d` and length `length`, surfaces
+/// 0.1 apart, relative normal velocity 1e-10) under `params` with the elastic part off:
+/// `(c, m_red, g)`, `c = −∂F/∂u` from one evaluation of the explicit law, `m_red` the reduced
+/// mass, `g` the relative velocity's amplification over one fluid step of `n_sub` sub-steps
+/// (module doc, `saturated_amplification_matches_analysis`; the case `implicit_damping`).
+pub fn saturated_scheme(
+    setup: Setup,
+    d: f64,
+    length: f64,
+    n_sub: usize,
+    params: ContactParams,
+) -> (f64, f64, f64) {
+    let u0 = 1e-10;
+    let Scene { mut bodies, markers, walls, normal } = scene_with_length(setup, d, length, u0, 0.1);
+    if bodies.len() == 2 {
+        bodies[0].velocity = normal * (0.5 * u0);
+        bodies[1].velocity = -normal * (0.5 * u0);
+    }
+    let law = ContactParams { elastic: false, ..Default::default() };
+    let mut ct = Contacts::new(law, walls, &bodies, &markers).expect("valid parameters");
+    let c = -ct.compute(&bodies, &markers)[0].force.dot(&normal) / u0;
+    let params = ContactParams { elastic: false, ..params };
+    let mut ct = Contacts::new(params, walls, &bodies, &markers).expect("valid parameters");
+    let m_red = if bodies.len() == 2 {
+        bodies[0].mass() * bodies[1].mass() / (bodies[0].mass() + bodies[1].mass())
+    } else {
+        bodies[0].mass()
+    };
+    let rel = |bs: &[RigidBody]| {
+        (if bs.len() == 2 { bs[0].velocity - bs[1].velocity } else { bs[0].velocity }).dot(&normal)
+    };
+    let before = rel(&bodies);
+    ct.advance(&mut bodies, &markers, n_sub);
+    (c, m_red, rel(&bodies) / before)
 }
 
 /// Runs the case.

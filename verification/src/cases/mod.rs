@@ -6,6 +6,7 @@ pub mod free_particles;
 pub mod fused_vs_reference;
 pub mod ibm_transfer;
 pub mod impeller;
+pub mod implicit_damping;
 pub mod mass_conservation;
 pub mod poiseuille;
 pub mod quaternion_norm;
@@ -80,6 +81,11 @@ pub fn all() -> Vec<Case> {
             name: "contacts_dry",
             summary: "dry collisions (Table 1 contacts): momentum, energy, restitution, closest approach",
             run: contacts_dry::run,
+        },
+        Case {
+            name: "implicit_damping",
+            summary: "backward-Euler contact damping vs the converged explicit scheme: first order, stable at one sub-step",
+            run: implicit_damping::run,
         },
         Case {
             name: "wet_lubrication",
