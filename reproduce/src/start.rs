@@ -697,8 +697,9 @@ mod tests {
         assert_eq!(angle("disk-ld2"), None);
     }
 
-    /// A pack of `case` (its fingerprint) on `grid`, with `bodies` (none, or no particles).
-    fn pack_of(path: &Path, case: &Case, grid: slurry::lattice::Grid, bodies: bool) {
+    /// A pack of `case` (its fingerprint) on the grid of `on`, with `bodies` (none, or no particles).
+    fn pack_of(path: &Path, case: &Case, on: &Case, bodies: bool) {
+        let grid = on.grid();
         let n = grid.nodes();
         let pack = slurry::io::StatePack {
             time_step: 1000,
@@ -746,7 +747,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("pack.h5");
         let s = scaled("pbt-ld2");
-        pack_of(&path, &stirred(&s), s.grid(), true);
+        pack_of(&path, &stirred(&s), &s, true);
         let rec = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap();
         let p = rec.state_pack.clone().expect("a pack start");
         assert_eq!((p.step, p.label.as_str()), (1000, "test"));
@@ -767,15 +768,18 @@ mod tests {
         let s = scaled("pbt-ld2");
         for other in ["pbt-ld4", "disk-ld2"] {
             let o = scaled(other);
-            pack_of(&path, &stirred(&o), o.grid(), true);
+            pack_of(&path, &stirred(&o), &o, true);
             let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
             assert!(e.contains("another case than pbt-ld2"), "{other}: {e}");
         }
-        let g = slurry::lattice::Grid { nx: 84, ny: 84, nz: 80 };
-        pack_of(&path, &stirred(&s), g, true);
+        let third = super::super::scale_case(
+            &super::super::paper_case("pbt-ld2").unwrap().case().unwrap(),
+            1.0 / 3.0,
+        );
+        pack_of(&path, &stirred(&s), &third.unwrap(), true);
         let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
         assert!(e.contains("84 x 84 x 80") && e.contains("--scale"), "{e}");
-        pack_of(&path, &stirred(&s), s.grid(), false);
+        pack_of(&path, &stirred(&s), &s, false);
         let e = start_bed("pbt-ld2", &s, &path, dir.path(), false).unwrap_err().to_string();
         assert!(e.contains("no bodies"), "{e}");
     }

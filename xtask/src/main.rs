@@ -144,6 +144,12 @@ fn ci(root: &Path) -> Step {
         print!("{md}");
     }
 
+    // The steady states continued from their packs: values, bands and the paper.
+    if let Ok(md) = std::fs::read_to_string(root.join("target/ci/steady-regression.md")) {
+        header("steady states at s = 1/4 against their bands and the paper (reproduce/tests/steady_regression.rs)");
+        print!("{md}");
+    }
+
     // The tests built target/release/slurry (its integration tests need the binary).
     header("inlining check of the release binary (SIMD paths compiled for their ISA)");
     bench::inlining_guard(root).map_err(Failed)?;
