@@ -318,7 +318,7 @@ pub fn run_case(case: &Case, out_dir: &Path, opts: RunOptions) -> anyhow::Result
 }
 
 /// Runs `case` as [`run_case`] does, but starting from the state pack at `pack` (written for
-/// this case and grid, [`StatePack::check_for`]) instead of the case's initial state: the
+/// this case and grid, [`crate::io::StatePack::check_for`]) instead of the case's initial state: the
 /// fluid rebuilt by [`pack_fluid_state`], the bodies restored exactly, the time series and
 /// particle history starting at the first output step after the pack's (the pack holds no
 /// loads of the step before its own, so the row of its step would read zero torques). Not

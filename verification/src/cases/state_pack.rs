@@ -27,8 +27,8 @@
 //!
 //! **Full tier: the steady state of pbt-ld2 at s = 1/4** (63 × 63 × 60, 822 cylinders, the PBT;
 //! the committed pack `reproduce/pbt-ld2/runs/2026-12-07-s0.25-steady/state.h5`, its stirred
-//! case read from the pack). From the pack, one revolution ([`STEADY_WARM`] steps) gives an
-//! exact state; it is continued [`STEADY_REVOLUTIONS`] revolutions exactly and from its own
+//! case read from the pack). From the pack, one revolution (1000 steps) gives an
+//! exact state; it is continued 10 revolutions exactly and from its own
 //! state pack. **Metric**: the velocity fields' relative L2 difference after 100 steps, and the
 //! differences of ⟨z_p⟩/H, Po_f, Po_c and Po averaged over the revolutions (every 50 steps, as
 //! the time series). **Tolerance**: 3e-3 for the field, as above; for the averages, the
