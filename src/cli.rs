@@ -53,10 +53,12 @@ pub struct RunControl {
     /// or more revolutions (`reproduce --revolutions`).
     #[arg(long)]
     pub resume: bool,
-    /// With --resume: accept a checkpoint written under other contact settings (`[contacts]
-    /// substeps`, `lubrication_limiter`, `lubrication_substeps`; everything else must match),
-    /// to continue a run under another contact scheme from the same state.
-    #[arg(long, requires = "resume")]
+    /// With --resume, or a start from a state pack (`run --from-pack`, `reproduce
+    /// --start-from`): accept a checkpoint or pack written under other contact settings
+    /// (`[contacts] substeps`, `lubrication_limiter`, `lubrication_substeps`, `damping`;
+    /// everything else must match), to continue a run under another contact scheme from the
+    /// same state.
+    #[arg(long)]
     pub switch_contacts: bool,
     /// Start over in an output directory that holds an earlier run, replacing its checkpoint,
     /// time series and particle history (without it, or --resume, such a directory is
@@ -69,6 +71,22 @@ pub struct RunControl {
 }
 
 impl RunControl {
+    /// Refuses `--switch-contacts` without a state to switch from: `--resume`, or a start from
+    /// a pack (`start_flag`, the command's flag for it, when given).
+    ///
+    /// # Errors
+    /// `--switch-contacts` alone.
+    pub fn check_switch_contacts(&self, start_flag: Option<&str>) -> Result<(), BadInput> {
+        if self.switch_contacts && !self.resume && start_flag.is_none() {
+            return Err(BadInput(
+                "--switch-contacts: needs --resume, or a start from a state pack (run --from-pack, \
+                 reproduce --start-from), whose contact settings it relaxes"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// The driver's options for these flags.
     pub fn run_options(&self) -> RunOptions {
         RunOptions {
@@ -294,6 +312,7 @@ pub fn cmd_run(a: RunArgs) -> anyhow::Result<()> {
     if let Some(d) = &a.device {
         case.run.device = if d == "gpu" { Device::Gpu } else { Device::Cpu };
     }
+    a.control.check_switch_contacts(a.from_pack.as_ref().map(|_| "--from-pack"))?;
     usable_out_dir(&a.out)?;
     let pool = thread_pool(a.control.console.threads)?;
     let opts = a.control.run_options();

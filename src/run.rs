@@ -457,8 +457,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             // The pack's own fingerprint where the case is the same up to normalisation (the
             // run's `case.toml` continues the run it was written by), or, with
             // `switch_contacts`, up to the contact scheme's cost settings.
-            let same = pack_is_of_case(&p, case)
-                || (opts.switch_contacts && case.normalised().same_except_contact_scheme(&p.case));
+            let same = pack_is_of_case(&p, case, opts.switch_contacts);
             let fingerprint = if same { p.case.clone() } else { case.fingerprint() };
             p.check_for(pack, case.grid(), &fingerprint, &run).map_err(|e| BadResume(e.to_string()))?;
             restore_from_pack(&mut solver, &p)

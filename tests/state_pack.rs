@@ -161,4 +161,25 @@ fn commands_pack_and_continue() {
         msg.contains("the state pack is of 'first 40'") && msg.contains("this run is 'the run in"),
         "{msg}"
     );
+
+    // Another contact scheme (implicit damping, 2 sub-steps): refused as another case, taken
+    // with --switch-contacts; the flag without a pack or --resume is refused.
+    let implicit = common::write_case(
+        dir.path(),
+        "implicit.toml",
+        &common::stirred_tank("steps = 60\noutput_every = 20", "substeps = 2\ndamping = \"implicit\""),
+    );
+    let from_pack = |out: &str, extra: &[&str]| {
+        let d = dir.path().join(out);
+        let mut args = vec!["run", implicit.to_str().unwrap(), "--out", d.to_str().unwrap(), "--quiet"];
+        args.extend_from_slice(extra);
+        common::slurry(&args)
+    };
+    let o = from_pack("d", &["--from-pack", pack.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", common::stderr(&o));
+    let o = from_pack("e", &["--from-pack", pack.to_str().unwrap(), "--switch-contacts"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = from_pack("f", &["--switch-contacts"]);
+    assert_eq!(o.status.code(), Some(2), "{}", common::stderr(&o));
+    assert!(common::stderr(&o).contains("--switch-contacts: needs --resume"), "{}", common::stderr(&o));
 }

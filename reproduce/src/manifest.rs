@@ -293,6 +293,7 @@ mod tests {
                 substeps: Some(2),
                 lubrication_limiter: true,
                 lubrication_substeps: None,
+                implicit_damping: false,
             },
             ..first.clone()
         };

@@ -97,6 +97,9 @@ pub struct ContactOverrides {
     /// [`slurry::contact::ContactParams::lubrication_substeps`]).
     #[serde(default)]
     pub lubrication_substeps: Option<usize>,
+    /// Integrate the lubrication damping implicitly ([`slurry::contact::Damping::Implicit`]).
+    #[serde(default)]
+    pub implicit_damping: bool,
 }
 
 impl ContactOverrides {
@@ -115,6 +118,9 @@ impl ContactOverrides {
             if let Some(m) = self.lubrication_substeps {
                 c.lubrication_substeps = m;
             }
+            if self.implicit_damping {
+                c.damping = slurry::contact::Damping::Implicit;
+            }
         }
     }
 
@@ -129,6 +135,9 @@ impl ContactOverrides {
         let lub = self.lubrication_substeps.filter(|&m| m > 1).map_or_else(String::new, |m| {
             format!(", {m} lubrication sub-steps each (frozen lubrication operators)")
         });
-        Some(format!("{n} per fluid step{limiter}{lub} (not the default: 8 sub-steps, explicit lubrication)"))
+        let implicit = if self.implicit_damping { ", lubrication damping implicit" } else { "" };
+        Some(format!(
+            "{n} per fluid step{limiter}{lub}{implicit} (not the default: 8 sub-steps, explicit lubrication)"
+        ))
     }
 }

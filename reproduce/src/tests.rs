@@ -82,7 +82,12 @@ fn contact_overrides_change_only_the_stirred_runs_contacts() {
     let mut same = c.clone();
     none.apply(&mut same);
     assert_eq!(same, c);
-    let o = ContactOverrides { substeps: Some(2), lubrication_limiter: true, lubrication_substeps: None };
+    let o = ContactOverrides {
+        substeps: Some(2),
+        lubrication_limiter: true,
+        lubrication_substeps: None,
+        implicit_damping: false,
+    };
     let mut changed = c.clone();
     o.apply(&mut changed);
     let k = changed.contacts.unwrap();
@@ -90,6 +95,16 @@ fn contact_overrides_change_only_the_stirred_runs_contacts() {
     assert_eq!(changed.contacts.map(|k| k.k), c.contacts.map(|k| k.k));
     assert_ne!(changed.fingerprint(), c.fingerprint(), "a resume with other contacts must be refused");
     assert!(o.describe().unwrap().contains("2 sub-steps per fluid step, lubrication limiter on"));
+    let implicit = ContactOverrides { substeps: Some(2), implicit_damping: true, ..Default::default() };
+    let mut changed = c.clone();
+    implicit.apply(&mut changed);
+    let k = changed.contacts.unwrap();
+    assert_eq!((k.substeps, k.damping), (2, slurry::contact::Damping::Implicit));
+    assert!(k.validate().is_ok(), "{:?}", k.validate());
+    assert!(implicit
+        .describe()
+        .unwrap()
+        .contains("2 sub-steps per fluid step, lubrication damping implicit"));
     assert!(check_contact_substeps(1).is_ok() && check_contact_substeps(1024).is_ok());
     assert!(check_contact_substeps(0).unwrap_err().contains("[1, 1024]"));
     assert!(check_contact_substeps(1025).is_err());

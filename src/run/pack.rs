@@ -49,10 +49,19 @@ pub fn state_pack_of<T: Real>(
 /// Whether `pack` was written for `case`: the same fingerprint, or the same case once both are
 /// normalised (the run's `case.toml`, which is normalised, names the case that the run's
 /// checkpoint, and so its pack, was written for).
-pub fn pack_is_of_case(pack: &StatePack, case: &Case) -> bool {
-    pack.case == case.fingerprint()
-        || toml::from_str::<Case>(&pack.case)
-            .is_ok_and(|c| c.normalised().fingerprint() == case.normalised().fingerprint())
+/// With `relax_contacts` ([`super::RunOptions::switch_contacts`]), the contact scheme's cost
+/// settings may differ ([`Case::fingerprint_except_contact_scheme`]).
+pub fn pack_is_of_case(pack: &StatePack, case: &Case, relax_contacts: bool) -> bool {
+    if pack.case == case.fingerprint() {
+        return true;
+    }
+    let Ok(packed) = toml::from_str::<Case>(&pack.case) else { return false };
+    let (packed, case) = (packed.normalised(), case.normalised());
+    if relax_contacts {
+        packed.fingerprint_except_contact_scheme() == case.fingerprint_except_contact_scheme()
+    } else {
+        packed.fingerprint() == case.fingerprint()
+    }
 }
 
 /// The fluid state that `pack` stands for, on `fluid`'s grid and parameters: the regularised
