@@ -372,9 +372,20 @@ impl Contacts {
     /// `self.lubrication`.
     pub(crate) fn lubrication_from_operators(&mut self, bodies: &[RigidBody], dt: f64) {
         debug_assert_eq!(self.ops.len(), self.list.pairs().len());
+        self.set_velocities(bodies, dt);
+        self.loads_at_velocities(bodies.len());
+    }
+
+    /// `self.velocities`: every body's `(v, ω)` `dt` after its clock ([`velocity`]).
+    fn set_velocities(&mut self, bodies: &[RigidBody], dt: f64) {
         self.velocities.clear();
         self.velocities.extend(bodies.iter().map(|b| velocity(b, dt)));
-        self.lubrication.resize(bodies.len(), ContactLoad::ZERO);
+    }
+
+    /// The lubrication loads of the last evaluation's operators at `self.velocities`, into
+    /// `self.lubrication` (`bodies` loads).
+    fn loads_at_velocities(&mut self, bodies: usize) {
+        self.lubrication.resize(bodies, ContactLoad::ZERO);
         lubrication_loads(
             self.list.pairs(),
             &self.ops,
@@ -393,8 +404,7 @@ impl Contacts {
     /// velocities into `self.lubrication`. Returns the number of bodies in the solve.
     pub(crate) fn implicit_damping(&mut self, bodies: &[RigidBody], h: f64, dt: f64) -> usize {
         debug_assert_eq!(self.ops.len(), self.list.pairs().len());
-        self.velocities.clear();
-        self.velocities.extend(bodies.iter().map(|b| velocity(b, dt)));
+        self.set_velocities(bodies, dt);
         self.implicit.solve(
             bodies,
             h,
@@ -406,16 +416,7 @@ impl Contacts {
             &self.known,
             &mut self.velocities,
         );
-        self.lubrication.resize(bodies.len(), ContactLoad::ZERO);
-        lubrication_loads(
-            self.list.pairs(),
-            &self.ops,
-            &self.slots,
-            &self.wall_ops,
-            &self.wall_slots,
-            &self.velocities,
-            &mut self.lubrication,
-        );
+        self.loads_at_velocities(bodies.len());
         self.implicit.unknowns
     }
 

@@ -380,3 +380,51 @@ pub const IMPLICIT_SUBSTEPS: usize = 2;
 /// phase, module `broad`, and the narrow phase, module `list`) never drops a pair that the
 /// exact criterion `|x_j − x_i| < reach` keeps.
 const MARGIN: f64 = 1e-6;
+
+/// The contact tests' shared scene.
+#[cfg(test)]
+pub(crate) mod fixture {
+    use super::Walls;
+    use crate::rigid::{Cylinder, Marker, Motion, Quat, RigidBody, Shape, Vec3, DEFAULT_MARKER_SPACING};
+    use std::sync::Arc;
+
+    /// Two free cylinders side by side, a third pinched between one of them and a moving
+    /// prescribed one, all over the floor, every surface inside the lubrication range.
+    pub(crate) fn scene() -> (Vec<RigidBody>, Vec<Vec<Marker>>, Walls) {
+        let shape: Arc<dyn Shape> = Arc::new(Cylinder::new(6.0, 6.0));
+        let m = shape.markers(DEFAULT_MARKER_SPACING);
+        let tilt = |a: f64| Quat::from_axis_angle(&Vec3::y_axis(), a);
+        let body = |x: f64, q: Quat, motion: Motion, v: Vec3, w: Vec3| {
+            RigidBody::new(shape.clone(), 1.25, motion)
+                .with_position(Vec3::new(x, 10.0, 3.4))
+                .with_orientation(q)
+                .with_velocities(v, w)
+        };
+        let bodies = vec![
+            body(
+                10.0,
+                tilt(0.05),
+                Motion::Free,
+                Vec3::new(0.01, -0.004, -0.006),
+                Vec3::new(0.001, 0.003, -0.002),
+            ),
+            body(
+                16.3,
+                tilt(-0.03),
+                Motion::Free,
+                Vec3::new(-0.02, 0.003, 0.001),
+                Vec3::new(-0.002, 0.001, 0.004),
+            ),
+            body(
+                3.75,
+                tilt(0.02),
+                Motion::constant(Vec3::new(0.015, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.002)),
+                Vec3::new(0.015, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, 0.002),
+            ),
+            body(22.6, tilt(0.01), Motion::Free, Vec3::new(-0.01, 0.0, 0.002), Vec3::new(0.0, -0.003, 0.001)),
+        ];
+        let markers = vec![m.clone(), m.clone(), m.clone(), m];
+        (bodies, markers, Walls { planes: [[None, None], [None, None], [Some(0.0), None]] })
+    }
+}

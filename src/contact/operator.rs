@@ -243,49 +243,14 @@ mod tests {
         }
     }
 
-    /// Bodies in contact (a free cylinder pinched between another free one and a moving
-    /// prescribed one, over the floor), every surface inside the lubrication range: the loads
+    /// Bodies in contact (the tests' scene: a free cylinder pinched between another free one and
+    /// a moving prescribed one, over the floor), every surface inside the lubrication range: the loads
     /// of an evaluation with lubrication sub-steps (the elastic part) plus the lubrication of
     /// its operators at the same velocities equal the explicit law's loads to round-off.
     #[test]
     fn operators_give_the_evaluations_lubrication() {
-        use crate::contact::{ContactParams, Contacts, Walls};
-        use crate::rigid::{Cylinder, Motion, Quat, RigidBody, Shape, DEFAULT_MARKER_SPACING};
-        use std::sync::Arc;
-        let shape: Arc<dyn Shape> = Arc::new(Cylinder::new(6.0, 6.0));
-        let m = shape.markers(DEFAULT_MARKER_SPACING);
-        let tilt = |a: f64| Quat::from_axis_angle(&Vec3::y_axis(), a);
-        let body = |x: f64, q: Quat, motion: Motion, v: Vec3, w: Vec3| {
-            RigidBody::new(shape.clone(), 1.25, motion)
-                .with_position(Vec3::new(x, 10.0, 3.4))
-                .with_orientation(q)
-                .with_velocities(v, w)
-        };
-        let bodies = vec![
-            body(
-                10.0,
-                tilt(0.05),
-                Motion::Free,
-                Vec3::new(0.01, -0.004, -0.006),
-                Vec3::new(0.001, 0.003, -0.002),
-            ),
-            body(
-                16.3,
-                tilt(-0.03),
-                Motion::Free,
-                Vec3::new(-0.02, 0.003, 0.001),
-                Vec3::new(-0.002, 0.001, 0.004),
-            ),
-            body(
-                3.75,
-                tilt(0.02),
-                Motion::constant(Vec3::new(0.015, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.002)),
-                Vec3::new(0.015, 0.0, 0.0),
-                Vec3::new(0.0, 0.0, 0.002),
-            ),
-        ];
-        let markers = vec![m.clone(), m.clone(), m];
-        let walls = Walls { planes: [[None, None], [None, None], [Some(0.0), None]] };
+        use crate::contact::{fixture::scene, ContactParams, Contacts};
+        let (bodies, markers, walls) = scene();
         let explicit = ContactParams::default();
         let mut a = Contacts::new(explicit, walls, &bodies, &markers).unwrap();
         let law = a.compute(&bodies, &markers).to_vec();

@@ -137,20 +137,7 @@ impl Contacts {
                 observer(k, bodies, &self.loads);
                 continue;
             }
-            let s = (k as f64 + 0.5) * h;
-            for (i, b) in bodies.iter_mut().enumerate() {
-                let c = self.loads[i];
-                self.average[i].force += c.force;
-                self.average[i].torque += c.torque;
-                if !b.is_free() {
-                    b.step(h);
-                    continue;
-                }
-                let ext = self.external_at(i, b, s);
-                b.add_force(ext.force + c.force);
-                b.add_torque(ext.torque + c.torque);
-                step_constant(b, h);
-            }
+            self.step_under_loads(bodies, (k as f64 + 0.5) * h, h);
             observer(k, bodies, &self.loads);
         }
         let inv = 1.0 / n_sub as f64;
@@ -232,11 +219,19 @@ impl Contacts {
         }
         self.known = known;
         self.implicit_damping(bodies, h, 0.5 * h);
+        for (c, l) in self.loads.iter_mut().zip(&self.lubrication) {
+            c.force += l.force;
+            c.torque += l.torque;
+        }
+        self.step_under_loads(bodies, s, h);
+    }
+
+    /// One contact sub-step of length `h` under the sub-step's contact loads `self.loads`
+    /// (added to `self.average`): a free body steps under them plus its external load at `s`
+    /// into the fluid step, held constant; a prescribed or fixed body follows its motion.
+    fn step_under_loads(&mut self, bodies: &mut [RigidBody], s: f64, h: f64) {
         for (i, b) in bodies.iter_mut().enumerate() {
-            let c = &mut self.loads[i];
-            c.force += self.lubrication[i].force;
-            c.torque += self.lubrication[i].torque;
-            let c = *c;
+            let c = self.loads[i];
             self.average[i].force += c.force;
             self.average[i].torque += c.torque;
             if !b.is_free() {
