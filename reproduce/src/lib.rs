@@ -355,6 +355,11 @@ pub fn schedule(c: &Case, revolutions: f64) -> anyhow::Result<Schedule> {
 pub const SNAPSHOT_REVOLUTIONS: [f64; 2] = [10.0, 90.0];
 
 impl Schedule {
+    /// Revolutions after the ramp at `step` (0 before the ramp ends).
+    pub fn revolutions_after_ramp(&self, step: u64) -> f64 {
+        step.saturating_sub(self.ramp_steps) as f64 / self.steps_per_revolution
+    }
+
     /// The output steps nearest [`SNAPSHOT_REVOLUTIONS`] that the run reaches.
     pub fn snapshot_steps(&self) -> Vec<u64> {
         SNAPSHOT_REVOLUTIONS
@@ -786,8 +791,6 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         wall_time_s: 0.0,
         sessions: Vec::new(),
     };
-    let session = this_session(&run_dir, opts.resume);
-    let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     // The run to `opts.revolutions`; with --until-steady, continued in legs of
     // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's
     // steady test passes or the cap is reached.
@@ -806,20 +809,20 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         }
         let leg_end = schedule(&scaled, target)?.steps;
         if leg_end <= *step {
-            let after = (*step as f64
-                - sched.ramp_steps.div_ceil(sched.output_every) as f64 * sched.output_every as f64)
-                / sched.steps_per_revolution;
-            let e = anyhow::anyhow!(
+            // Refused before the manifest records a session.
+            let after = sched.revolutions_after_ramp(*step);
+            return Err(slurry::run::BadResume(format!(
                 "--revolutions {}: the state pack {} is at step {step}, {after:.2} revolutions after the ramp; ask \
                  for more (e.g. --revolutions {:.2} for 10 more)",
                 opts.revolutions,
                 path.display(),
                 after + STEADY_CHECK_REVOLUTIONS
-            );
-            let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &e);
-            return Err(e);
+            ))
+            .into());
         }
     }
+    let session = this_session(&run_dir, opts.resume);
+    let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {
         let sched = schedule(&scaled, target)?;
@@ -887,8 +890,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         run,
     };
     let results = report::write_all(name, &case, &paper, &record, &bed, &opts.out)?;
-    let revolutions_done =
-        (record.run.steps.saturating_sub(sched.ramp_steps)) as f64 / sched.steps_per_revolution;
+    let revolutions_done = sched.revolutions_after_ramp(record.run.steps);
     record_file.finish(&opts.out, t0.elapsed().as_secs_f64(), record.run.steps, revolutions_done)?;
     let summary = ReproduceSummary {
         record,

@@ -90,3 +90,32 @@ fn help_states_the_real_range() {
     assert!(help.contains("0.25 ≤ s ≤ 1"), "{help}");
     assert!(!help.contains("0.1"), "{help}");
 }
+
+/// A start from a state pack must go past the pack: `--revolutions` at or before the pack's
+/// step is refused (exit status 2) with the pack's position and a remedy, before the output
+/// directory records a session.
+#[test]
+fn start_from_a_pack_must_go_past_it() {
+    let pack = common::root().join("reproduce/pbt-ld2/runs/2026-12-07-s0.25-steady/state.h5");
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let t0 = Instant::now();
+    let o = Command::new(bin())
+        .args(["reproduce", "pbt-ld2", "--scale", "0.25", "--revolutions", "30", "--quiet", "--start-from"])
+        .arg(&pack)
+        .arg("--out")
+        .arg(&out)
+        .arg("--cache")
+        .arg(tmp.path().join("cache"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("is at step 41000, 40.00 revolutions after the ramp")
+            && stderr.contains("--revolutions 50.00"),
+        "{stderr}"
+    );
+    assert!(!out.join("manifest.json").exists(), "a refused start records no session");
+    assert!(t0.elapsed() < Duration::from_secs(20), "took {:?}", t0.elapsed());
+}
