@@ -542,6 +542,19 @@ pub fn bed(
     let hash = format!("{:016x}", fnv1a(&inputs));
     let dir = cache.join("beds").join(format!("{name}-{hash}"));
     let file = dir.join("bed.json");
+    // One process settles a bed at a time: another run of the same bed (the same case, or
+    // the disk's and the PBT's of one ℓ/d) waits for it and then takes it from the cache.
+    let beds = cache.join("beds");
+    std::fs::create_dir_all(&beds).with_context(|| format!("cannot create {}", beds.display()))?;
+    let _settling = slurry::io::lock::OutputLock::acquire_waiting(
+        &beds.join(format!(".{hash}.lock")),
+        "--cache",
+        |who| {
+            if !quiet {
+                eprintln!("bed: {who} is settling the same bed into {}; waiting for it", beds.display());
+            }
+        },
+    )?;
     if let Some((rec, from)) = cached_bed(cache, &dir, &hash, &inputs, &key_case) {
         if !quiet && from != file {
             eprintln!("bed: from the cache entry {} (same inputs)", from.display());

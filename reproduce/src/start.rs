@@ -512,6 +512,8 @@ pub fn write_start_pack(src: &Path, dest: &Path, at: Option<f64>) -> anyhow::Res
     // The frames the choice tries first, in step order, with their phase errors.
     let mut keep: Vec<(f64, usize)> = s.ranked.iter().take(PACK_FRAMES).copied().collect();
     keep.sort_unstable_by_key(|&(_, k)| k);
+    // One writer per pack: a second `start-pack` into `dest` is refused while this one writes.
+    slurry::io::lock::claim_output_dir(dest, "PACK")?;
     let run = dest.join("run");
     std::fs::create_dir_all(&run).with_context(|| format!("cannot create {}", run.display()))?;
     let manifest_path = src.join(manifest::FILE);

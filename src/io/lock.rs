@@ -9,6 +9,10 @@
 //! second writer names. Claims are kept for the life of the process: a second claim of a
 //! directory this process already holds (a resumed leg of the same run) succeeds at once.
 //!
+//! [`OutputLock::acquire_waiting`] locks a named file for one piece of work that two
+//! processes must not do at once (settling one cached bed), waiting for the holder instead of
+//! refusing.
+//!
 //! On a file system that cannot lock (some network mounts answer `ENOLCK`), a warning says so
 //! and the directory is used unlocked.
 
@@ -44,47 +48,33 @@ impl OutputLock {
     /// lock of this one) holds the directory.
     pub fn acquire(dir: &Path, flag: &str) -> Result<OutputLock, OutputRefused> {
         let path = dir.join(LOCK_FILE);
-        let mut file =
-            OpenOptions::new().read(true).write(true).create(true).truncate(false).open(&path).map_err(
-                |e| OutputRefused(format!("{flag} {}: cannot write into the directory: {e}", dir.display())),
-            )?;
-        match try_lock(&file) {
-            Ok(()) => {}
-            Err(e) if e.raw_os_error() == Some(libc::EWOULDBLOCK) => {
-                let holder = holder_record(&mut file);
-                let mut lines = holder.lines();
-                let who = match (lines.next().filter(|l| !l.is_empty()), lines.next()) {
-                    (Some(pid), Some(cmd)) => format!("PID {pid} (`{cmd}`)"),
-                    (Some(pid), None) => format!("PID {pid}"),
-                    _ => "a process that has not yet recorded its PID".to_string(),
-                };
-                return Err(OutputRefused(format!(
-                    "{flag} {}: the directory is in use by another slurry process, {who}, which \
-                     holds {}; wait until it ends or choose another directory",
-                    dir.display(),
-                    path.display()
-                )));
-            }
-            Err(e) => {
-                eprintln!(
-                    "warning: {flag} {}: cannot lock the directory ({e}); a second writer into it \
-                     would not be detected",
-                    dir.display()
-                );
-            }
+        let (file, holder) = open_and_lock(&path, flag, dir, None)?;
+        if let Some(who) = holder {
+            return Err(OutputRefused(format!(
+                "{flag} {}: the directory is in use by another slurry process, {who}, which \
+                 holds {}; wait until it ends or choose another directory",
+                dir.display(),
+                path.display()
+            )));
         }
-        let command: Vec<String> = std::env::args_os().map(|a| a.to_string_lossy().into_owned()).collect();
-        let record = format!("{}\n{}\n", std::process::id(), command.join(" "));
-        // Written over the old record, then cut to its length: a reader sees this record's
-        // lines first at every moment.
-        let written = file
-            .rewind()
-            .and_then(|()| file.write_all(record.as_bytes()))
-            .and_then(|()| file.set_len(record.len() as u64))
-            .and_then(|()| file.flush());
-        written.map_err(|e| {
-            OutputRefused(format!("{flag} {}: cannot write {}: {e}", dir.display(), path.display()))
-        })?;
+        Ok(OutputLock { dir: dir.to_path_buf(), _file: file })
+    }
+
+    /// Locks the file `path` (created if needed, in an existing directory) for one piece of
+    /// work that two processes must not do at once, e.g. settling one cached bed: when another
+    /// process holds it, `waiting` is called with the holder's description and the lock is
+    /// awaited (the holder's work is then usually there to be reused). `flag` names the
+    /// directory's option in messages.
+    ///
+    /// # Errors
+    /// [`OutputRefused`]: the lock file cannot be created or written.
+    pub fn acquire_waiting(
+        path: &Path,
+        flag: &str,
+        waiting: impl FnOnce(&str),
+    ) -> Result<OutputLock, OutputRefused> {
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let (file, _) = open_and_lock(path, flag, dir, Some(Box::new(waiting)))?;
         Ok(OutputLock { dir: dir.to_path_buf(), _file: file })
     }
 
@@ -92,6 +82,62 @@ impl OutputLock {
     pub fn dir(&self) -> &Path {
         &self.dir
     }
+}
+
+/// What a waiting lock calls with the holder's description before it waits.
+type Waiting<'a> = Box<dyn FnOnce(&str) + 'a>;
+
+/// Opens the lock file `path` (in `dir`, given as `flag`) and locks it. When another holds it:
+/// without `wait`, returns the holder's description and no lock; with `wait`, calls it with the
+/// description and blocks until the lock is free. Once locked, writes this process's record
+/// (`PID\nCOMMAND\n`). On a file system that cannot lock, warns and goes on unlocked.
+fn open_and_lock(
+    path: &Path,
+    flag: &str,
+    dir: &Path,
+    wait: Option<Waiting<'_>>,
+) -> Result<(File, Option<String>), OutputRefused> {
+    let mut file =
+        OpenOptions::new().read(true).write(true).create(true).truncate(false).open(path).map_err(|e| {
+            OutputRefused(format!("{flag} {}: cannot write into the directory: {e}", dir.display()))
+        })?;
+    match try_lock(&file, false) {
+        Ok(()) => {}
+        Err(e) if e.raw_os_error() == Some(libc::EWOULDBLOCK) => {
+            let holder = holder_record(&mut file);
+            let mut lines = holder.lines();
+            let who = match (lines.next().filter(|l| !l.is_empty()), lines.next()) {
+                (Some(pid), Some(cmd)) => format!("PID {pid} (`{cmd}`)"),
+                (Some(pid), None) => format!("PID {pid}"),
+                _ => "a process that has not yet recorded its PID".to_string(),
+            };
+            let Some(wait) = wait else { return Ok((file, Some(who))) };
+            wait(&who);
+            try_lock(&file, true).map_err(|e| {
+                OutputRefused(format!("{flag} {}: cannot wait for {}: {e}", dir.display(), path.display()))
+            })?;
+        }
+        Err(e) => {
+            eprintln!(
+                "warning: {flag} {}: cannot lock {} ({e}); a second writer would not be detected",
+                dir.display(),
+                path.display()
+            );
+        }
+    }
+    let command: Vec<String> = std::env::args_os().map(|a| a.to_string_lossy().into_owned()).collect();
+    let record = format!("{}\n{}\n", std::process::id(), command.join(" "));
+    // Written over the old record, then cut to its length: a reader sees this record's
+    // lines first at every moment.
+    let written = file
+        .rewind()
+        .and_then(|()| file.write_all(record.as_bytes()))
+        .and_then(|()| file.set_len(record.len() as u64))
+        .and_then(|()| file.flush());
+    written.map_err(|e| {
+        OutputRefused(format!("{flag} {}: cannot write {}: {e}", dir.display(), path.display()))
+    })?;
+    Ok((file, None))
 }
 
 /// The holder's record in the lock file (`PID\nCOMMAND\n`), waiting up to half a second for
@@ -108,12 +154,13 @@ fn holder_record(file: &mut File) -> String {
     text
 }
 
-/// `flock(LOCK_EX | LOCK_NB)` on `file`.
+/// `flock(LOCK_EX | LOCK_NB)` on `file`, or with `block` `flock(LOCK_EX)` (waits).
 #[cfg(unix)]
-fn try_lock(file: &File) -> std::io::Result<()> {
+fn try_lock(file: &File, block: bool) -> std::io::Result<()> {
     use std::os::fd::AsRawFd;
+    let op = if block { libc::LOCK_EX } else { libc::LOCK_EX | libc::LOCK_NB };
     // SAFETY: flock on a descriptor this `File` owns and keeps open; no memory is passed.
-    let r = unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) };
+    let r = unsafe { libc::flock(file.as_raw_fd(), op) };
     if r == 0 {
         Ok(())
     } else {
@@ -123,7 +170,7 @@ fn try_lock(file: &File) -> std::io::Result<()> {
 
 /// No advisory lock where `flock` does not exist: reported as unsupported.
 #[cfg(not(unix))]
-fn try_lock(_file: &File) -> std::io::Result<()> {
+fn try_lock(_file: &File, _block: bool) -> std::io::Result<()> {
     Err(std::io::Error::from(std::io::ErrorKind::Unsupported))
 }
 
@@ -189,6 +236,28 @@ mod tests {
         assert!(refused.contains(&format!("PID {}", std::process::id())), "{refused}");
         drop(first);
         OutputLock::acquire(dir.path(), "--out").expect("released with its file");
+    }
+
+    /// A waiting lock is told who holds it and gets it once the holder lets go.
+    #[test]
+    fn a_waiting_lock_waits_for_the_holder() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bed.lock");
+        let first = OutputLock::acquire_waiting(&path, "--cache", |_| panic!("free")).unwrap();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let waiter = {
+            let path = path.clone();
+            std::thread::spawn(move || {
+                let _second =
+                    OutputLock::acquire_waiting(&path, "--cache", |who| tx.send(who.to_string()).unwrap())
+                        .unwrap();
+            })
+        };
+        let who = rx.recv_timeout(std::time::Duration::from_secs(10)).expect("told that it waits");
+        assert!(who.contains(&format!("PID {}", std::process::id())), "{who}");
+        assert!(!waiter.is_finished(), "waits while the first holds the lock");
+        drop(first);
+        waiter.join().unwrap();
     }
 
     #[test]
