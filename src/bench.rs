@@ -37,6 +37,10 @@ pub struct BenchResult {
     pub gbs: f64,
     /// Instruction set of the kernel.
     pub isa: String,
+    /// A device row: the device's copy bandwidth measured in the same run, GB/s
+    /// ([`crate::device::bandwidth`]); `gbs / copy_gbs` is the step's fraction of it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub copy_gbs: Option<f64>,
 }
 
 /// The benchmark's fluid: a periodic box with a smooth perturbation.
@@ -91,6 +95,7 @@ pub fn measure_device(
         mlups_median: rates[rates.len() / 2],
         gbs: best * 1e6 * Fluid::<f32>::bytes_per_update() as f64 / 1e9,
         isa: "gpu".to_string(),
+        copy_gbs: None,
     })
 }
 
@@ -124,6 +129,7 @@ pub fn measure<T: Real>(grid: Grid, trt: bool, threads: usize, reps: usize, seco
             mlups_median: rates[rates.len() / 2],
             gbs: best * 1e6 * Fluid::<T>::bytes_per_update() as f64 / 1e9,
             isa: fluid.isa().name().to_string(),
+            copy_gbs: None,
         }
     })
 }

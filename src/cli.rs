@@ -451,20 +451,43 @@ pub fn cmd_bench(a: &BenchArgs) -> anyhow::Result<()> {
         check_threads("--threads", t)?;
     }
     let mut results: Vec<BenchResult> = Vec::new();
-    let ctx = if a.device == "gpu" {
+    let device = if a.device == "gpu" {
         let ctx = crate::device::Context::new()?;
         println!("device: {}", ctx.describe());
         if ctx.is_cpu_driver() {
             println!("(a CPU driver: its MLUPS show that the device path works, not its speed)");
         }
-        Some(ctx)
+        // The copy ceiling, with buffers the size of the largest grid's populations (f32).
+        let bytes = grids.iter().map(|g| 19 * 4 * g.nodes() as u64).max().unwrap_or(1 << 20);
+        let bw = crate::device::bandwidth::copy_bandwidth(&ctx, bytes, a.reps)?;
+        println!(
+            "device copy bandwidth: {:.1} GB/s (median {:.1}; buffers of {} MB, read plus write)",
+            bw.gbs,
+            bw.gbs_median,
+            bw.bytes / 1_000_000
+        );
+        Some((ctx, bw))
     } else {
         None
     };
     println!(
-        "{:>13} {:>4} {:>4} {:>3} {:>9} {:>9} {:>7} {:>7}",
-        "grid", "prec", "coll", "thr", "MLUPS", "median", "GB/s", "isa"
+        "{:>13} {:>4} {:>4} {:>3} {:>9} {:>9} {:>7} {:>7} {:>6}",
+        "grid", "prec", "coll", "thr", "MLUPS", "median", "GB/s", "isa", "copy%"
     );
+    let row = |r: &BenchResult| {
+        println!(
+            "{:>13} {:>4} {:>4} {:>3} {:>9.1} {:>9.1} {:>7.1} {:>7} {:>6}",
+            format!("{}x{}x{}", r.nx, r.ny, r.nz),
+            r.precision,
+            r.collision,
+            if r.isa == "gpu" { "-".to_string() } else { r.threads.to_string() },
+            r.mlups,
+            r.mlups_median,
+            r.gbs,
+            r.isa,
+            r.copy_gbs.map_or("-".to_string(), |c| format!("{:.0}", 100.0 * r.gbs / c)),
+        );
+    };
     for g in &grids {
         for p in &a.precisions {
             for c in &a.collisions {
@@ -475,32 +498,13 @@ pub fn cmd_bench(a: &BenchArgs) -> anyhow::Result<()> {
                     } else {
                         measure::<f64>(*g, trt, t, a.reps, a.seconds)
                     };
-                    println!(
-                        "{:>13} {:>4} {:>4} {:>3} {:>9.1} {:>9.1} {:>7.1} {:>7}",
-                        format!("{}x{}x{}", g.nx, g.ny, g.nz),
-                        r.precision,
-                        r.collision,
-                        r.threads,
-                        r.mlups,
-                        r.mlups_median,
-                        r.gbs,
-                        r.isa
-                    );
+                    row(&r);
                     results.push(r);
                 }
-                if let (Some(ctx), true) = (&ctx, p == "f32") {
-                    let r = measure_device(ctx, *g, c == "trt", a.workgroup, a.reps, a.seconds)?;
-                    println!(
-                        "{:>13} {:>4} {:>4} {:>3} {:>9.1} {:>9.1} {:>7.1} {:>7}",
-                        format!("{}x{}x{}", g.nx, g.ny, g.nz),
-                        r.precision,
-                        r.collision,
-                        "-",
-                        r.mlups,
-                        r.mlups_median,
-                        r.gbs,
-                        r.isa
-                    );
+                if let (Some((ctx, bw)), true) = (&device, p == "f32") {
+                    let mut r = measure_device(ctx, *g, c == "trt", a.workgroup, a.reps, a.seconds)?;
+                    r.copy_gbs = Some(bw.gbs);
+                    row(&r);
                     results.push(r);
                 }
             }

@@ -10,12 +10,14 @@
 //!
 //! - [`Context`]: the adapter and its device and queue, chosen once per process.
 //! - [`fluid`]: [`DeviceFluid`], the device copy of the fluid and its step.
+//! - [`bandwidth`]: the device's copy bandwidth, the ceiling the step is quoted against.
 //! - `shaders/`: the kernels in WGSL (`common.wgsl` bindings and parameters,
 //!   `stream_collide.wgsl`, `links.wgsl`), compiled when a [`DeviceFluid`] is made.
 //!
 //! The CPU solver ([`crate::lbm`]) is the reference and is not changed by this module: the
 //! device runs the same operations in the same order on the same f32 storage.
 
+pub mod bandwidth;
 pub mod fluid;
 
 pub use fluid::DeviceFluid;
