@@ -224,6 +224,20 @@ pub(crate) fn bins(tank: &Tank, bin_width: f64) -> Result<(usize, f64), StatsErr
 /// Relative slack for comparing revolution counts (steps over steps per revolution).
 const REV_EPS: f64 = 1e-9;
 
+/// The revolutions a series of samples at `revs` (ascending, about equally spaced) stands
+/// for: from one sample interval before the first to the last, `last − first` plus the mean
+/// interval. A series written from a state pack's step starts one interval after it (the pack
+/// holds no loads for its own step), so its `n` samples cover `n` intervals, as those of a run
+/// from step 0 cover the `n − 1` intervals after its sample at 0 and that sample.
+fn span_of(first: f64, last: f64, samples: usize) -> f64 {
+    let span = last - first;
+    if samples < 2 {
+        span
+    } else {
+        span + span / (samples - 1) as f64
+    }
+}
+
 /// A window of a series counts as covered only if no stretch of it longer than this fraction
 /// of its length lacks samples (the series are written every 0.05 revolution or so: a hole
 /// of 5 % of a 20-revolution window is 20 missing samples). Such a hole is a lost part of the
@@ -333,7 +347,7 @@ pub fn power_averages(series: &[(f64, f64, f64)], last_revs: f64) -> Result<Powe
         from_rev: w[0].0,
         to_rev: last.0,
         samples: w.len(),
-        covered: last.0 - first.0 >= last_revs * (1.0 - REV_EPS) && hole.is_none(),
+        covered: span_of(first.0, last.0, series.len()) >= last_revs * (1.0 - REV_EPS) && hole.is_none(),
         revs_covered: last.0 - w[0].0 - gaps,
     })
 }
@@ -373,7 +387,7 @@ pub struct SteadyTest {
 /// β = Σ (rev_i − r̄)(v_i − v̄) / Σ (rev_i − r̄)²,   drift = β · window_revs,
 /// ```
 ///
-/// and the series counts as steady when it spans at least `window_revs` revolutions without a
+/// and the series counts as steady when it spans ([`span_of`]) at least `window_revs` revolutions without a
 /// hole longer than [`HOLE_FRACTION`] of the window (the window is fully covered), its drift is
 /// within the tolerance, and the window resolves a drift of that size:
 ///
@@ -412,7 +426,7 @@ pub fn steady_state(series: &[(f64, f64)], window_revs: f64, tolerance: f64) -> 
         t.reason = "empty series".into();
         return t;
     };
-    let span = last.0 - first.0;
+    let span = span_of(first.0, last.0, series.len());
     t.window_revs_available = span.min(window_revs);
     let cutoff = last.0 - window_revs - REV_EPS * window_revs.abs().max(1.0);
     let w: Vec<(f64, f64)> = series.iter().copied().filter(|s| s.0 >= cutoff).collect();

@@ -82,8 +82,16 @@ fn steady_state_fits_the_window_and_names_what_failed() {
     let tight = steady_state(&series, 20.0, 1e-3);
     assert!(!tight.steady && tight.reason.contains("exceeds"), "{}", tight.reason);
     let short = steady_state(&series[180..], 20.0, 0.01);
-    assert!(!short.steady && short.reason.contains("spans 10.000"), "{}", short.reason);
-    assert_eq!(short.window_revs_available, 10.0);
+    // 21 samples half a revolution apart stand for 10.5 revolutions (from one interval before
+    // the first).
+    assert!(!short.steady && short.reason.contains("spans 10.500"), "{}", short.reason);
+    assert_eq!(short.window_revs_available, 10.5);
+    // A series from a state pack's step: its first sample one interval after the start, its
+    // 40 samples cover the 20 revolutions of the window.
+    let from_pack: Vec<(f64, f64)> = (1..=40).map(|k| (50.0 + 0.5 * k as f64, 0.3)).collect();
+    let t = steady_state(&from_pack, 20.0, 0.01);
+    assert!(t.steady && t.window_revs_available == 20.0, "{}", t.reason);
+    assert!(!steady_state(&from_pack[1..], 20.0, 0.01).steady, "one sample fewer does not cover it");
     let one = steady_state(&series[200..], 20.0, 0.01);
     assert!(
         !one.steady && one.slope_per_rev.is_nan() && one.reason.contains("fewer than two"),
