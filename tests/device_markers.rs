@@ -14,7 +14,7 @@
 use std::sync::{Arc, OnceLock};
 
 use slurry::coupling::{Coupled, CouplingParams};
-use slurry::device::{Context, DeviceFluid, DeviceMarkers};
+use slurry::device::{Context, DeviceCoupled, DeviceFluid, DeviceMarkers};
 use slurry::ibm::{interpolate, spread, DeltaKernel, FnField, Stencils};
 use slurry::lattice::{Face, Grid};
 use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams};
@@ -353,25 +353,29 @@ fn check_loads(
     }
 }
 
-/// Phases 1, 2 and 4–5 of the coupled step and the IBM loads on the device against the CPU's
-/// `Coupled<f32>` over several steps: a fixed sphere and a prescribed cylinder moving and
-/// spinning through a channel flow driven by a body force (its stencils move: the previous
-/// step's forcing is cleared), the fluid stepping on the device too; the loads' IBM part
-/// compared step by step.
+/// The coupled step of a fixed sphere and a prescribed cylinder moving and spinning through a
+/// channel flow driven by a body force (its stencils move: the previous step's forcing is
+/// cleared), two forcing iterations, fluid and markers on the device (`DeviceCoupled`), against
+/// the CPU's `Coupled<f32>`: the loads' IBM part step by step, the bodies' poses bitwise (both
+/// follow the prescribed motion on the host), and the velocity fields at the end.
 ///
-/// The bound: the CPU forms the marker forces from f64 weights and its field with one f32
-/// rounding per addition; the device from f32 weights (`δx ≤ 16 u (r + 1)`) and the
+/// The bound on the loads: the CPU forms the marker forces from f64 weights and its field with
+/// one f32 rounding per addition; the device from f32 weights (`δx ≤ 16 u (r + 1)`) and the
 /// fixed-point sums. The relative difference of a load is then a few `δx |∇u|/|U − u|` plus
 /// `n u` per sum, about `1e-6`; the fluids differ by a few ulp per step as well
-/// (tests/device_fluid.rs). `1e-4` of the load's size bounds both over 30 steps.
+/// (tests/device_fluid.rs). `1e-4` of the load's size bounds both over 30 steps; the velocity
+/// fields (|u| ≤ 0.05) by `1e-6`, the bound of tests/device_fluid.rs for 200 steps.
 #[test]
-fn coupled_forcing_matches_the_cpu() {
-    let g = Grid::new(17, 15, 19);
-    let b =
-        Boundaries::periodic().with(Face::ZMin, FaceBoundary::NoSlip).with(Face::ZMax, FaceBoundary::NoSlip);
-    let mut host = Fluid::<f32>::new(g, FluidParams::trt(0.1).with_body_force([2e-5, 0.0, 0.0]), b).unwrap();
-    host.initialize(|_, _, z| (1.0, [0.02 * (z as f64 + 0.5) / 19.0, 0.0, 0.0]));
-    host.enable_force_field();
+fn coupled_step_matches_the_cpu() {
+    let channel = || {
+        let g = Grid::new(17, 15, 19);
+        let b = Boundaries::periodic()
+            .with(Face::ZMin, FaceBoundary::NoSlip)
+            .with(Face::ZMax, FaceBoundary::NoSlip);
+        let mut f = Fluid::<f32>::new(g, FluidParams::trt(0.1).with_body_force([2e-5, 0.0, 0.0]), b).unwrap();
+        f.initialize(|_, _, z| (1.0, [0.02 * (z as f64 + 0.5) / 19.0, 0.0, 0.0]));
+        f
+    };
     let sphere = RigidBody::new(Arc::new(Sphere::new(6.0)), 1.0, Motion::Fixed)
         .with_position(Vec3::new(4.3, 7.1, 9.4))
         .with_orientation(Quat::from_euler_angles(0.3, 0.2, 0.1));
@@ -381,21 +385,20 @@ fn coupled_forcing_matches_the_cpu() {
         .with_orientation(Quat::from_euler_angles(1.0, 0.4, -0.2))
         .with_velocities(v, w);
     let params = CouplingParams { iterations: 2, ..CouplingParams::default() };
-    let mut dev = DeviceFluid::new(ctx(), &host, 64).unwrap();
-    let mut cpu = Coupled::new(host, vec![sphere, cylinder], params).unwrap();
-    let sets = [cpu.markers(0).to_vec(), cpu.markers(1).to_vec()];
-    let refs: Vec<&[Marker]> = sets.iter().map(|s| s.as_slice()).collect();
-    let mut markers = DeviceMarkers::new(&dev, &refs, params.kernel, 64).unwrap();
+    let bodies = vec![sphere, cylinder];
+    let mut cpu = Coupled::new(channel(), bodies.clone(), params).unwrap();
+    let mut dev = DeviceCoupled::new(ctx(), channel(), bodies, params, 64).unwrap();
+    assert_eq!(dev.markers(1), cpu.markers(1), "the CPU's forcing markers");
     let steps = 30;
-    let t = std::time::Instant::now();
     let mut worst = 0.0f64;
+    let mut seconds = 0.0;
     for step in 0..steps {
-        markers.set_bodies(cpu.bodies());
         cpu.step().unwrap();
-        markers.force(&dev, params.iterations).unwrap();
+        let t = std::time::Instant::now();
         dev.step().unwrap();
-        let loads = markers.loads().unwrap();
-        for (b, (f, torque)) in loads.into_iter().enumerate() {
+        seconds += t.elapsed().as_secs_f64();
+        for b in 0..2 {
+            let (f, torque) = dev.ibm_loads(b);
             let l = cpu.loads(b);
             let scale = l.ibm_force.norm();
             let rel = ((f - l.ibm_force).norm() / scale).max((torque - l.ibm_torque).norm() / scale);
@@ -406,12 +409,32 @@ fn coupled_forcing_matches_the_cpu() {
                 l.ibm_force,
                 l.ibm_torque
             );
+            assert_eq!(dev.bodies()[b].position, cpu.bodies()[b].position);
+            assert_eq!(dev.bodies()[b].orientation, cpu.bodies()[b].orientation);
         }
     }
+    let mirror = dev.download().unwrap();
+    let (_, ud) = mirror.fields();
+    let (_, uc) = cpu.fluid().fields();
+    let du =
+        ud.iter().zip(&uc).flat_map(|(a, b)| (0..3).map(move |k| (a[k] - b[k]).abs())).fold(0.0, f64::max);
+    assert!(du < 1e-6, "velocity fields differ by {du:.3e}");
     println!(
         "a fixed sphere and a moving cylinder, {} markers, {steps} coupled steps: IBM loads within {worst:.3e} \
-         of |F| of the CPU's, {:.3} s on the device (forcing, fluid step and loads)",
-        markers.len(),
-        t.elapsed().as_secs_f64()
+         of |F| of the CPU's, velocities within {du:.3e}; {:.2} ms a step on {}",
+        dev.device_markers().len(),
+        1e3 * seconds / steps as f64,
+        dev.device_fluid().adapter()
     );
+}
+
+/// Free bodies and contacts are refused, with the reason.
+#[test]
+fn free_bodies_are_refused() {
+    let g = Grid::new(8, 8, 8);
+    let host = Fluid::<f32>::new(g, FluidParams::trt(0.1), Boundaries::periodic()).unwrap();
+    let free =
+        RigidBody::new(Arc::new(Sphere::new(3.0)), 1.2, Motion::Free).with_position(Vec3::new(4.0, 4.0, 4.0));
+    let e = DeviceCoupled::new(ctx(), host, vec![free], CouplingParams::default(), 64).err().unwrap();
+    assert!(e.to_string().contains("interior-fluid term"), "{e}");
 }

@@ -14,6 +14,9 @@
 //!   [`DeviceFluid`] (kinematics, stencils, interpolation, direct forcing, deterministic
 //!   spreading into its force field, the bodies' IBM loads); per step only the bodies' states
 //!   go up and their loads come down.
+//! - [`coupled`]: [`DeviceCoupled`], the coupled step of fixed and prescribed bodies with the
+//!   fluid and the markers on the device and the bodies on the host (free bodies are refused:
+//!   their interior-fluid term and implicit shell reaction are not on the device yet).
 //! - `shaders/`: the kernels in WGSL (`common.wgsl` bindings and parameters,
 //!   `stream_collide.wgsl`, `links.wgsl`, compiled when a [`DeviceFluid`] is made; `ibm.wgsl`,
 //!   when a [`DeviceMarkers`] is made).
@@ -22,9 +25,11 @@
 //! changed by this module: the device runs the same operations in the same order on the same
 //! f32 storage (the markers in f32 where the CPU's transfer works in f64).
 
+pub mod coupled;
 pub mod fluid;
 pub mod markers;
 
+pub use coupled::DeviceCoupled;
 pub use fluid::DeviceFluid;
 pub use markers::DeviceMarkers;
 
