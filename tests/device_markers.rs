@@ -438,3 +438,91 @@ fn free_bodies_are_refused() {
     let e = DeviceCoupled::new(ctx(), host, vec![free], CouplingParams::default(), 64).err().unwrap();
     assert!(e.to_string().contains("interior-fluid term"), "{e}");
 }
+
+/// The interior-fluid sums on the device against the CPU's (`Coupled::interior_momentum`)
+/// over one coupled step: a free sphere across the periodic seam, a free tilted cylinder next
+/// to a wall, a fixed cuboid, and a prescribed cylinder (no interior term), in the smooth flow.
+///
+/// The bounds, over the `N ≤ (4/3)π(R + 1)³` nodes with `α > 0` of a body of bounding radius
+/// `R`: each `α` moves with the f32 signed distance, by at most `8 u (R + 1)` (the node's
+/// offset and the body frame's rotation rounded, a norm); each momentum by the f32 moments'
+/// rounding, at most `32 u S` (`S` the largest `Σ|h_i|`), and after the step by the fluids'
+/// own difference (a few ulp of each population: within the same `32 u S`). So
+/// `|ΔV| ≤ 8 u (R + 1) N`, `|ΔP| ≤ N (8 u (R + 1) j + 64 u S)` (`j` the largest momentum),
+/// `|ΔL| ≤ (R + 1) |ΔP|`; the difference after − before, where the sums' own size cancels,
+/// within twice the bound on P (the compensated sums add no rounding of their size).
+#[test]
+fn interior_sums_match_the_cpu() {
+    // The coupling owns the force field, zero away from the bodies from the start.
+    let mut host = fluid(0);
+    host.clear_force_field();
+    let g = host.grid();
+    let (mut s_max, mut j_max) = (0.0f64, 0.0f64);
+    for n in 0..g.nodes() {
+        let [x, y, z] = g.coords(n);
+        let h = host.shifted_populations(x, y, z);
+        s_max = s_max.max(h.iter().map(|v| (*v as f64).abs()).sum());
+        j_max = j_max.max(host.macroscopic(x, y, z).1.iter().fold(0.0f64, |a, v| a.max(v.abs())) * 1.01);
+    }
+    let mut bodies = bodies();
+    bodies[1] =
+        RigidBody::new(Arc::new(slurry::rigid::Cuboid::new(Vec3::new(3.0, 4.0, 2.5))), 1.0, Motion::Fixed)
+            .with_position(Vec3::new(10.5, 16.6, 3.6))
+            .with_orientation(Quat::from_euler_angles(0.2, 0.5, -0.3));
+    for i in [0, 2, 3] {
+        let b = &bodies[i];
+        bodies[i] = RigidBody::new(b.shape().clone(), 1.2, Motion::Free)
+            .with_position(b.position)
+            .with_orientation(b.orientation)
+            .with_velocities(b.velocity, b.angular_velocity);
+    }
+    let params = CouplingParams { iterations: 1, ..CouplingParams::default() };
+    let mut dev = DeviceFluid::new(ctx(), &host, 64).unwrap();
+    let mut cpu = Coupled::new(host, bodies.clone(), params).unwrap();
+    let sets: Vec<Vec<Marker>> = (0..bodies.len()).map(|b| cpu.markers(b).to_vec()).collect();
+    let refs: Vec<&[Marker]> = sets.iter().map(|s| s.as_slice()).collect();
+    let mut markers = DeviceMarkers::new(&dev, &refs, params.kernel, 64).unwrap();
+    markers.enable_interior(&bodies).unwrap();
+    markers.set_bodies(&bodies);
+    let t = std::time::Instant::now();
+    markers.interior(&dev, false).unwrap();
+    markers.force(&dev, 1).unwrap();
+    dev.step().unwrap();
+    markers.interior(&dev, true).unwrap();
+    let got = markers.interior_sums().unwrap();
+    let seconds = t.elapsed().as_secs_f64();
+    cpu.step().unwrap();
+    for (b, body) in bodies.iter().enumerate() {
+        let want = cpu.interior_momentum(b);
+        let r = body.shape().bounding_radius() + 1.0;
+        let n = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3);
+        let tol_v = 8.0 * EPS * r * n;
+        let tol_p = n * (8.0 * EPS * r * j_max + 64.0 * EPS * s_max);
+        let tol_l = r * tol_p;
+        let mut worst = [0.0f64; 4];
+        for (slot, (gs, ws)) in got[b].iter().zip([want.before, want.after]).enumerate() {
+            let (dp, dl, dv) = ((gs.0 - ws.0).abs().max(), (gs.1 - ws.1).abs().max(), (gs.2 - ws.2).abs());
+            assert!(dv <= tol_v, "body {b} slot {slot}: V {} vs {} (> {tol_v:.2e})", gs.2, ws.2);
+            assert!(dp <= tol_p, "body {b} slot {slot}: P {} vs {} (> {tol_p:.2e})", gs.0, ws.0);
+            assert!(dl <= tol_l, "body {b} slot {slot}: L {} vs {} (> {tol_l:.2e})", gs.1, ws.1);
+            worst[0] = worst[0].max(dv / tol_v);
+            worst[1] = worst[1].max(dp);
+            worst[2] = worst[2].max(dl);
+        }
+        let dd = ((got[b][1].0 - got[b][0].0) - (want.after.0 - want.before.0)).abs().max();
+        assert!(dd <= 2.0 * tol_p, "body {b}: P_after − P_before differs by {dd:.3e}");
+        worst[3] = dd;
+        println!(
+            "body {b} ({}): V {:.4} vs {:.4}, |ΔP| {:.2e}, |ΔL| {:.2e} (bound {tol_p:.1e}, {tol_l:.1e}), \
+             |Δ(P_after − P_before)| {:.2e} of |P_after − P_before| {:.2e}",
+            body.shape().name(),
+            got[b][0].2,
+            want.before.2,
+            worst[1],
+            worst[2],
+            worst[3],
+            (want.after.0 - want.before.0).abs().max()
+        );
+    }
+    println!("interior sums before and after, forcing and fluid step: {seconds:.3} s on {}", dev.adapter());
+}

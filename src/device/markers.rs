@@ -49,11 +49,15 @@
 //! previous stencils' nodes (the only nodes where they are non-zero), as phase 4 clears the
 //! previous band; the whole field the first time and after [`DeviceMarkers::reset`].
 //!
-//! **Not on the device (left to the host, or not done):** the band and the interior-fluid
-//! sums (`coupling::interior`: `P`, `L`, `V` before and after the fluid step) and so the
-//! interior term of the loads, the implicit shell reaction and the body update with contacts
-//! (`coupling::loads`, `contact`). [`DeviceMarkers::loads`] gives the IBM part of the loads
-//! only. The CPU computes in f64 from the f32 fluid; here everything is f32 (the agreement is
+//! **Interior sums** (`interior`, [`DeviceMarkers::enable_interior`]): `coupling::interior`'s
+//! `P`, `L`, `V` of the fixed and free bodies before the forcing and after the fluid step, for
+//! spheres, cylinders and cuboids, with compensated f32 sums (downloaded, 112 bytes a body).
+//!
+//! **Not on the device (left to the host, or not done):** the band (the device needs none:
+//! it reads the fluid at the stencil nodes themselves), the composition of the loads with the
+//! interior term, the implicit shell reaction and the body update with contacts
+//! (`coupling::loads`, `contact`): [`DeviceMarkers::loads`] gives the IBM part of the loads.
+//! The CPU computes in f64 from the f32 fluid; here everything is f32 (the agreement is
 //! measured in `tests/device_markers.rs`).
 
 use wgpu::util::DeviceExt;
@@ -95,7 +99,11 @@ mod bind {
     pub const PARTIAL: u32 = 38;
     pub const LOADS: u32 = 39;
     pub const STATUS: u32 = 40;
-    /// The number of bindings.
+    pub const SHAPES: u32 = 41;
+    pub const ROWS: u32 = 42;
+    pub const ROW_SUMS: u32 = 43;
+    pub const INTERIOR: u32 = 44;
+    /// The number of bindings of the markers' own kernels.
     pub const COUNT: usize = 41;
 }
 
@@ -145,6 +153,48 @@ pub struct DeviceMarkers {
     row_groups: u32,
     /// Whether the next placement clears the whole field (first use, after a reset).
     whole_clear: bool,
+    /// The kernels' module and the override constants of this kernel and work group.
+    module: wgpu::ShaderModule,
+    constants: Vec<(&'static str, f64)>,
+    /// The fluid's population buffers (for kernels made later).
+    pops: Vec<wgpu::Buffer>,
+    /// The interior sums, once enabled ([`DeviceMarkers::enable_interior`]).
+    interior: Option<interior::Interior>,
+}
+
+mod interior;
+
+/// A kernel `entry` of `module` with its bind group of `(binding, buffer)` pairs (the bindings
+/// its entry point uses: the layout is derived from it), over `threads` threads.
+fn make_kernel(
+    device: &wgpu::Device,
+    module: &wgpu::ShaderModule,
+    constants: &[(&str, f64)],
+    entry: &str,
+    bindings: &[(u32, &wgpu::Buffer)],
+    threads: usize,
+) -> Kernel {
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout: None,
+        module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    });
+    let entries: Vec<wgpu::BindGroupEntry> = bindings
+        .iter()
+        .map(|&(k, b)| wgpu::BindGroupEntry { binding: k, resource: b.as_entire_binding() })
+        .collect();
+    let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(entry),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    });
+    Kernel { pipeline, group, threads: threads as u32 }
 }
 
 /// A storage buffer of `bytes` (at least 16) with `contents` at its start.
@@ -342,35 +392,17 @@ impl DeviceMarkers {
         });
         let width = kernel.width() as f64;
         let kid = kernel_id(kernel) as f64;
+        let constants = vec![("WG", workgroup as f64), ("KERNEL", kid), ("WIDTH", width)];
         let make = |entry: &str, clear: bool, bindings: &[u32], threads: usize| -> Kernel {
-            let mut constants = vec![("WG", workgroup as f64), ("KERNEL", kid), ("WIDTH", width)];
+            let mut constants = constants.clone();
             if entry == "settle" {
                 constants.push(("CLEAR", clear as u8 as f64));
             }
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: None,
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            });
-            let entries: Vec<wgpu::BindGroupEntry> = bindings
+            let pairs: Vec<(u32, &wgpu::Buffer)> = bindings
                 .iter()
-                .map(|&k| wgpu::BindGroupEntry {
-                    binding: k,
-                    resource: buffers[k as usize].expect("every binding has a buffer").as_entire_binding(),
-                })
+                .map(|&k| (k, buffers[k as usize].expect("every binding has a buffer")))
                 .collect();
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(entry),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            });
-            Kernel { pipeline, group, threads: threads as u32 }
+            make_kernel(&device, &module, &constants, entry, &pairs, threads)
         };
         use bind::*;
         let fluid_bindings: Vec<u32> =
@@ -428,6 +460,10 @@ impl DeviceMarkers {
             kernels,
             row_groups,
             whole_clear: true,
+            module,
+            constants,
+            pops: fluid.population_buffers().to_vec(),
+            interior: None,
         })
     }
 

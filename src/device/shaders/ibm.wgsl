@@ -32,8 +32,9 @@ struct IbmParams {
     per_x: u32,
     per_y: u32,
     per_z: u32,
-    pad0: u32,
-    pad1: u32,
+    // Rows of the interior sums, and which sums (0 before the forcing, 1 after the fluid step).
+    n_rows: u32,
+    slot: u32,
     pad2: u32,
     // The fluid's uniform body force.
     body_x: f32,
@@ -98,6 +99,16 @@ struct IbmParams {
 @group(0) @binding(39) var<storage, read_write> loads: array<vec4<f32>>;
 // The lowest marker that could not be given a stencil (0xffffffff: none).
 @group(0) @binding(40) var<storage, read_write> status: array<atomic<u32>>;
+// Interior sums. Per body two entries: (kind: 0 none, 1 sphere, 2 cylinder, 3 cuboid; nodes per
+// axis of its box; first row; -), then f32 bits of (radius or half extents; half-length; -;
+// the box's reach from the centre).
+@group(0) @binding(41) var<storage, read> shapes: array<vec4<u32>>;
+// Per row of a body's box: (body, y index, z index, -).
+@group(0) @binding(42) var<storage, read> rows: array<vec4<u32>>;
+// Per row, four entries: the sums (P, L, V) and their compensations, see `interior_rows`.
+@group(0) @binding(43) var<storage, read_write> row_sums: array<vec4<f32>>;
+// Per body and slot (before, after), four entries as `row_sums`.
+@group(0) @binding(44) var<storage, read_write> interior: array<vec4<f32>>;
 
 // Work-group size, the kernel (0 linear, 1 Roma 3-point, 2 Peskin 4-point) and its width.
 override WG: u32 = 64u;
@@ -281,10 +292,10 @@ fn load_force(p: u32) -> vec3<f32> {
     );
 }
 
-// The fluid velocity u = (j + F/2)/rho at padded node p, from the pre-collision populations
-// whatever the AA parity (Fluid::shifted_populations), with the CPU's sums in its order
-// (lbm::collision::moments) and F the field plus the body force (added in f32, as the CPU).
-fn velocity(p: u32) -> vec3<f32> {
+// The momentum j and the density deviation (w) at padded node p, from the pre-collision
+// populations whatever the AA parity (Fluid::shifted_populations), with the CPU's sums in its
+// order (lbm::collision::moments).
+fn moments(p: u32) -> vec4<f32> {
     let px = prm.px;
     let pxy = px * prm.py;
     var h: array<f32, 19>;
@@ -335,9 +346,16 @@ fn velocity(p: u32) -> vec3<f32> {
     let jx = (h[1] - h[2]) + (h[7] - h[8]) + (h[9] - h[10]) + (h[11] - h[12]) + (h[13] - h[14]);
     let jy = (h[3] - h[4]) + (h[7] - h[8]) + (h[10] - h[9]) + (h[15] - h[16]) + (h[17] - h[18]);
     let jz = (h[5] - h[6]) + (h[11] - h[12]) + (h[14] - h[13]) + (h[15] - h[16]) + (h[18] - h[17]);
-    let rho = 1.0 + drho;
+    return vec4<f32>(jx, jy, jz, drho);
+}
+
+// The fluid velocity u = (j + F/2)/rho at padded node p, F the field plus the body force (added
+// in f32, as the CPU).
+fn velocity(p: u32) -> vec3<f32> {
+    let m = moments(p);
+    let rho = 1.0 + m.w;
     let f = load_force(p) + vec3<f32>(prm.body_x, prm.body_y, prm.body_z);
-    return vec3<f32>((jx + 0.5 * f.x) / rho, (jy + 0.5 * f.y) / rho, (jz + 0.5 * f.z) / rho);
+    return vec3<f32>((m.x + 0.5 * f.x) / rho, (m.y + 0.5 * f.y) / rho, (m.z + 0.5 * f.z) / rho);
 }
 
 // u_m = sum_n delta_mn u_n over the stencil in the CPU's order (z, then y, then x), with the
@@ -541,4 +559,153 @@ fn body_loads(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     loads[2u * b] = vec4<f32>(f, 0.0);
     loads[2u * b + 1u] = vec4<f32>(t, 0.0);
+}
+
+// ---- Interior sums (coupling::interior): P = sum a j, L = sum a r x j, V = sum a over the
+// nodes of a body's box, a = clamp(1/2 - sd, 0, 1), sd the shape's signed distance at the node
+// (body frame), r the node's unwrapped offset from the centre. Each sum is kept with a running
+// compensation (Neumaier's variant of Kahan's summation), so that the difference of the sums
+// before and after a step keeps the accuracy of the momenta rather than of the sums' size.
+
+// The shape's signed distance at body-frame point q (src/rigid: sphere, cylinder about body z,
+// cuboid), in the CPU's operations.
+fn signed_distance(kind: u32, d: vec4<f32>, q: vec3<f32>) -> f32 {
+    if kind == 1u {
+        return length(q) - d.x;
+    }
+    if kind == 2u {
+        let qr = sqrt(q.x * q.x + q.y * q.y) - d.x;
+        let qz = abs(q.z) - d.y;
+        let a = max(qr, 0.0);
+        let b = max(qz, 0.0);
+        return min(max(qr, qz), 0.0) + sqrt(a * a + b * b);
+    }
+    let e = abs(q) - d.xyz;
+    return length(max(e, vec3<f32>(0.0))) + min(max(max(e.x, e.y), e.z), 0.0);
+}
+
+// s[i] + x with the rounding error kept in c[i].
+fn neumaier(s: ptr<function, array<f32, 7>>, c: ptr<function, array<f32, 7>>, i: u32, x: f32) {
+    let a = (*s)[i];
+    let t = a + x;
+    if abs(a) >= abs(x) {
+        (*c)[i] = (*c)[i] + ((a - t) + x);
+    } else {
+        (*c)[i] = (*c)[i] + ((x - t) + a);
+    }
+    (*s)[i] = t;
+}
+
+// The node index of unwrapped coordinate j on axis a, or 0xffffffff outside a walled axis.
+fn wrap(a: u32, j: i32) -> u32 {
+    let n = i32(axis_n(a));
+    if axis_periodic(a) {
+        return u32(((j % n) + n) % n);
+    }
+    if j < 0 || j >= n {
+        return 0xffffffffu;
+    }
+    return u32(j);
+}
+
+fn store_sums(out: u32, s: array<f32, 7>, c: array<f32, 7>, dst: u32) {
+    if dst == 0u {
+        row_sums[out] = vec4<f32>(s[0], s[1], s[2], s[3]);
+        row_sums[out + 1u] = vec4<f32>(s[4], s[5], s[6], 0.0);
+        row_sums[out + 2u] = vec4<f32>(c[0], c[1], c[2], c[3]);
+        row_sums[out + 3u] = vec4<f32>(c[4], c[5], c[6], 0.0);
+    } else {
+        interior[out] = vec4<f32>(s[0], s[1], s[2], s[3]);
+        interior[out + 1u] = vec4<f32>(s[4], s[5], s[6], 0.0);
+        interior[out + 2u] = vec4<f32>(c[0], c[1], c[2], c[3]);
+        interior[out + 3u] = vec4<f32>(c[4], c[5], c[6], 0.0);
+    }
+}
+
+// First stage: one row of a body's box (its nodes in x order), the box being the W^3 nodes
+// from floor(centre - reach) on, reach the bounding radius plus 1/2 (every node with
+// sd < 1/2 lies in it).
+@compute @workgroup_size(WG)
+fn interior_rows(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = thread(gid);
+    if k >= prm.n_rows {
+        return;
+    }
+    let row = rows[k];
+    let b = row.x;
+    let kind = shapes[2u * b].x;
+    let w = shapes[2u * b].y;
+    let d = bitcast<vec4<f32>>(shapes[2u * b + 1u]);
+    let origin = bitcast<vec3<i32>>(bodies[7u * b].xyz);
+    let frac = body_f32(b, 1u);
+    let r0 = body_f32(b, 2u);
+    let r1 = body_f32(b, 3u);
+    let r2 = body_f32(b, 4u);
+    let lo = vec3<i32>(floor(frac - vec3<f32>(d.w)));
+    let yr = lo.y + i32(row.y);
+    let zr = lo.z + i32(row.z);
+    let y = wrap(1u, origin.y + yr);
+    let z = wrap(2u, origin.z + zr);
+    var s: array<f32, 7>;
+    var c: array<f32, 7>;
+    for (var i = 0u; i < 7u; i++) {
+        s[i] = 0.0;
+        c[i] = 0.0;
+    }
+    if y != 0xffffffffu && z != 0xffffffffu {
+        for (var ix = 0u; ix < w; ix++) {
+            let xr = lo.x + i32(ix);
+            let x = wrap(0u, origin.x + xr);
+            if x == 0xffffffffu {
+                continue;
+            }
+            let r = vec3<f32>(f32(xr) - frac.x, f32(yr) - frac.y, f32(zr) - frac.z);
+            // Body frame: R^T r.
+            let q = r0 * r.x + r1 * r.y + r2 * r.z;
+            let alpha = clamp(0.5 - signed_distance(kind, d, q), 0.0, 1.0);
+            if alpha > 0.0 {
+                let m = moments(padded(x, y, z)).xyz * alpha;
+                let l = cross(r, m);
+                neumaier(&s, &c, 0u, m.x);
+                neumaier(&s, &c, 1u, m.y);
+                neumaier(&s, &c, 2u, m.z);
+                neumaier(&s, &c, 3u, l.x);
+                neumaier(&s, &c, 4u, l.y);
+                neumaier(&s, &c, 5u, l.z);
+                neumaier(&s, &c, 6u, alpha);
+            }
+        }
+    }
+    store_sums(4u * k, s, c, 0u);
+}
+
+// Second stage: per body, its rows in order (sums added with compensation, compensations
+// added), into slot prm.slot.
+@compute @workgroup_size(WG)
+fn interior_bodies(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let b = thread(gid);
+    if b >= prm.n_bodies {
+        return;
+    }
+    let w = shapes[2u * b].y;
+    let first = shapes[2u * b].z;
+    var s: array<f32, 7>;
+    var c: array<f32, 7>;
+    for (var i = 0u; i < 7u; i++) {
+        s[i] = 0.0;
+        c[i] = 0.0;
+    }
+    for (var k = first; k < first + w * w; k++) {
+        let a0 = row_sums[4u * k];
+        let a1 = row_sums[4u * k + 1u];
+        let e0 = row_sums[4u * k + 2u];
+        let e1 = row_sums[4u * k + 3u];
+        var rs = array<f32, 7>(a0.x, a0.y, a0.z, a0.w, a1.x, a1.y, a1.z);
+        var rc = array<f32, 7>(e0.x, e0.y, e0.z, e0.w, e1.x, e1.y, e1.z);
+        for (var i = 0u; i < 7u; i++) {
+            neumaier(&s, &c, i, rs[i]);
+            c[i] = c[i] + rc[i];
+        }
+    }
+    store_sums(8u * b + 4u * prm.slot, s, c, 1u);
 }
