@@ -1,32 +1,29 @@
-//! [`DeviceCoupled`]: the coupled step with the fluid and the immersed-boundary markers on the
-//! device and the bodies on the host, for **fixed and prescribed bodies** (obstacles,
-//! impellers).
+//! [`DeviceCoupled`]: the coupled step with the fluid, the immersed-boundary markers and the
+//! interior-fluid sums on the device and the bodies on the host: fixed, prescribed (obstacles,
+//! impellers) and free bodies, without contacts.
 //!
-//! Per step, as `coupling::Coupled::step` orders it: the bodies' states at `tⁿ` go up
-//! ([`DeviceMarkers::set_bodies`]); on the device the markers are placed, the previous step's
-//! forcing is cleared, `K` direct-forcing iterations force the fluid
-//! ([`DeviceMarkers::force`]), the fluid steps ([`DeviceFluid::step`]) and the IBM loads are
-//! reduced; they come down ([`DeviceMarkers::loads`]); the bodies advance on the host
-//! (prescribed bodies follow their motion, fixed bodies stay: `RigidBody::step`, what
-//! `contact::step_bodies` does without contacts). The only per-step traffic: 112 bytes a body
-//! up, 32 bytes a body down.
+//! Per step, in `coupling::Coupled::step`'s order: the bodies' states at `tⁿ` go up
+//! ([`DeviceMarkers::set_bodies`]); on the device the interior sums before the forcing
+//! (phase 3, when there are free bodies), the markers placed and the previous forcing cleared,
+//! `K` direct-forcing iterations ([`DeviceMarkers::force`]: phases 1–2, 4–5), the fluid step
+//! (6) and the interior sums after it (7); the IBM loads and the interior sums come down
+//! ([`DeviceMarkers::loads`], [`DeviceMarkers::interior_sums`]); on the host the loads are
+//! composed as `coupling::loads` composes them (the IBM part plus the interior rates with their
+//! flux corrections) and the bodies advance as there (phase 8): free bodies with the implicit
+//! shell reaction and their net weight, prescribed bodies along their motion, fixed bodies
+//! staying (`contact::step_bodies` without contacts). The per-step traffic: 112 bytes a body
+//! up, 144 bytes a body down.
 //!
-//! **What is not here, and why free bodies are refused.** A free body's load on the CPU is the
-//! IBM load plus the rate of change of the momentum of the fluid inside it (the interior sums
-//! `P`, `L`, `V` before and after the fluid step, `coupling::interior`), and its update takes
-//! the forcing shell's reaction implicitly (`coupling::loads`); without both the update is
-//! unstable for the paper's density ratio (the `coupling` module docs). Neither is on the
-//! device yet, so [`DeviceCoupled::new`] refuses free bodies, and contacts (which act only on
-//! free bodies' motion). For a prescribed body the CPU has no interior term either: its loads
-//! here are the CPU's hydrodynamic loads (an impeller's torque is the paper's fluid torque).
-//! For a fixed body the CPU adds the interior term to the reported load (zero in a steady
-//! flow); here only the IBM part is given.
-
+//! **Not here:** contacts (refused). The interior sums need the shape's signed distance on the
+//! device: spheres, cylinders and cuboids (`markers/interior`); when there are free bodies,
+//! every fixed or free body must be one. Without free bodies the interior sums are skipped and
+//! a fixed body's loads lack the interior term (zero in a steady flow), which the CPU reports.
 use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
-use crate::coupling::CouplingParams;
+use crate::contact::step_bodies;
+use crate::coupling::{shell_implicit, shell_inertia, BodyLoads, CouplingParams};
 use crate::lbm::Fluid;
-use crate::rigid::{Marker, RigidBody, Vec3};
+use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
 
 /// The coupled step of fixed and prescribed bodies with the fluid and the markers on the
 /// device (module docs).
@@ -37,7 +34,14 @@ pub struct DeviceCoupled {
     sets: Vec<Vec<Marker>>,
     bodies: Vec<RigidBody>,
     iterations: usize,
-    loads: Vec<(Vec3, Vec3)>,
+    gravity: Vec3,
+    /// Whether the interior sums run (there are free bodies).
+    interior: bool,
+    loads: Vec<BodyLoads>,
+    /// Per body, the forcing shell's mass and body-frame moments.
+    shell: Vec<(f64, Vec3)>,
+    /// Per body, its velocity change in the last step (free bodies; zero otherwise).
+    velocity_change: Vec<(Vec3, Vec3)>,
 }
 
 impl DeviceCoupled {
@@ -48,26 +52,19 @@ impl DeviceCoupled {
     /// `workgroup` threads.
     ///
     /// # Errors
-    /// [`DeviceError::Mismatch`] for a free body, contacts, no forcing iteration, a marker
-    /// spacing that is not positive and finite, or a body that cannot be retracted; the device
-    /// fluid's and markers' errors.
+    /// [`DeviceError::Mismatch`] for contacts, no forcing iteration, a marker spacing that is
+    /// not positive and finite, a body that cannot be retracted, or (with free bodies) a fixed
+    /// or free body whose signed distance the device does not have; the device fluid's and
+    /// markers' errors.
     pub fn new(
         ctx: &Context,
         mut fluid: Fluid<f32>,
-        bodies: Vec<RigidBody>,
+        mut bodies: Vec<RigidBody>,
         params: CouplingParams,
         workgroup: u32,
     ) -> Result<Self, DeviceError> {
-        if let Some(b) = bodies.iter().position(RigidBody::is_free) {
-            return Err(DeviceError::Mismatch(format!(
-                "body {b} is free: free bodies need the interior-fluid term and the implicit shell \
-                 reaction, which are not on the device yet"
-            )));
-        }
         if params.contacts.is_some() {
-            return Err(DeviceError::Mismatch(
-                "contacts are not on the device (they move only free bodies, which are refused)".into(),
-            ));
+            return Err(DeviceError::Mismatch("contacts are not coupled to the device's step yet".into()));
         }
         if params.iterations == 0 {
             return Err(DeviceError::Mismatch("at least one forcing iteration is needed".into()));
@@ -90,16 +87,27 @@ impl DeviceCoupled {
         fluid.enable_force_field();
         let device_fluid = DeviceFluid::new(ctx, &fluid, workgroup)?;
         let refs: Vec<&[Marker]> = sets.iter().map(Vec::as_slice).collect();
-        let markers = DeviceMarkers::new(&device_fluid, &refs, params.kernel, workgroup)?;
+        let mut markers = DeviceMarkers::new(&device_fluid, &refs, params.kernel, workgroup)?;
+        let interior = bodies.iter().any(RigidBody::is_free);
+        if interior {
+            markers.enable_interior(&bodies)?;
+        }
+        for b in bodies.iter_mut().filter(|b| b.is_free()) {
+            b.load_scheme = LoadScheme::Constant;
+        }
         let n = bodies.len();
         Ok(Self {
             host: fluid,
             fluid: device_fluid,
             markers,
+            shell: sets.iter().map(|m| shell_inertia(m)).collect(),
             sets,
             bodies,
             iterations: params.iterations,
-            loads: vec![(Vec3::zeros(), Vec3::zeros()); n],
+            gravity: Vec3::from(params.gravity),
+            interior,
+            loads: vec![BodyLoads::default(); n],
+            velocity_change: vec![(Vec3::zeros(), Vec3::zeros()); n],
         })
     }
 
@@ -110,11 +118,49 @@ impl DeviceCoupled {
     /// (the fluid has stepped without it: the state is to be discarded); the device's errors.
     pub fn step(&mut self) -> Result<(), DeviceError> {
         self.markers.set_bodies(&self.bodies);
+        if self.interior {
+            self.markers.interior(&self.fluid, false)?;
+        }
         self.markers.force(&self.fluid, self.iterations)?;
         self.fluid.step()?;
-        self.loads = self.markers.loads()?;
-        for b in &mut self.bodies {
-            b.step(1.0);
+        if self.interior {
+            self.markers.interior(&self.fluid, true)?;
+        }
+        let ibm = self.markers.loads()?;
+        let sums = if self.interior { Some(self.markers.interior_sums()?) } else { None };
+        // Phase 7's loads, as `coupling::loads::collect_loads` composes them.
+        for (b, (body, (f, t))) in self.bodies.iter().zip(ibm).enumerate() {
+            let (mut interior_force, mut interior_torque) = (Vec3::zeros(), Vec3::zeros());
+            if let Some(s) = &sums {
+                let [before, after] = s[b];
+                let (u, w) = (body.velocity, body.angular_velocity);
+                let inertia_fluid = body.inertia_world() / body.density();
+                interior_force = after.0 - before.0 + w.cross(&u) * after.2;
+                interior_torque = after.1 - before.1 + w.cross(&(inertia_fluid * w));
+            }
+            self.loads[b] =
+                BodyLoads { ibm_force: f, ibm_torque: t, interior_force, interior_torque, ..self.loads[b] };
+        }
+        // Phase 8, as `coupling::loads::advance_bodies` without contacts.
+        let start: Vec<(Vec3, Vec3)> = self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)).collect();
+        let (loads, shell, last, g) = (&self.loads, &self.shell, &self.velocity_change, self.gravity);
+        step_bodies(None, &mut self.bodies, &self.sets, 1, |b: usize, body: &RigidBody| {
+            let l = &loads[b];
+            shell_implicit(
+                body,
+                &shell[b],
+                &last[b],
+                (l.contact_force, l.contact_torque),
+                l.force() + body.net_weight(g, 1.0),
+                l.torque(),
+            )
+        });
+        for ((c, s), b) in self.velocity_change.iter_mut().zip(&start).zip(&self.bodies) {
+            *c = if b.is_free() {
+                (b.velocity - s.0, b.angular_velocity - s.1)
+            } else {
+                (Vec3::zeros(), Vec3::zeros())
+            };
         }
         Ok(())
     }
@@ -143,7 +189,13 @@ impl DeviceCoupled {
     /// The IBM loads on body `b` from the last step: `(−Σ F_m, −Σ r_m × F_m)`, torque about
     /// its centre (world frame).
     pub fn ibm_loads(&self, b: usize) -> (Vec3, Vec3) {
-        self.loads[b]
+        (self.loads[b].ibm_force, self.loads[b].ibm_torque)
+    }
+
+    /// The loads on body `b` from the last step, as `coupling::Coupled::loads` gives them
+    /// (the interior term zero when there are no free bodies; no contact loads).
+    pub fn loads(&self, b: usize) -> &BodyLoads {
+        &self.loads[b]
     }
 
     /// The device fluid.

@@ -14,9 +14,8 @@
 //!   [`DeviceFluid`] (kinematics, stencils, interpolation, direct forcing, deterministic
 //!   spreading into its force field, the bodies' IBM loads); per step only the bodies' states
 //!   go up and their loads come down.
-//! - [`coupled`]: [`DeviceCoupled`], the coupled step of fixed and prescribed bodies with the
-//!   fluid and the markers on the device and the bodies on the host (free bodies are refused:
-//!   their interior-fluid term and implicit shell reaction are not on the device yet).
+//! - [`coupled`]: [`DeviceCoupled`], the coupled step without contacts: the fluid, the markers
+//!   and the interior sums on the device, the bodies on the host.
 //! - `shaders/`: the kernels in WGSL (`common.wgsl` bindings and parameters,
 //!   `stream_collide.wgsl`, `links.wgsl`, compiled when a [`DeviceFluid`] is made; `ibm.wgsl`,
 //!   when a [`DeviceMarkers`] is made).
