@@ -1,6 +1,6 @@
 //! [`DeviceCoupled`]: the coupled step with the fluid, the immersed-boundary markers and the
-//! interior-fluid sums on the device and the bodies on the host: fixed, prescribed (obstacles,
-//! impellers) and free bodies, without contacts.
+//! interior-fluid sums on the device and the bodies and their contacts on the host: fixed,
+//! prescribed (obstacles, impellers) and free bodies.
 //!
 //! Per step, in `coupling::Coupled::step`'s order: the bodies' states at `tⁿ` go up
 //! ([`DeviceMarkers::set_bodies`]); on the device the interior sums before the forcing
@@ -11,16 +11,16 @@
 //! composed as `coupling::loads` composes them (the IBM part plus the interior rates with their
 //! flux corrections) and the bodies advance as there (phase 8): free bodies with the implicit
 //! shell reaction and their net weight, prescribed bodies along their motion, fixed bodies
-//! staying (`contact::step_bodies` without contacts). The per-step traffic: 112 bytes a body
-//! up, 144 bytes a body down.
+//! staying, all sub-cycled with the contacts when there are any (`contact::step_bodies`, with
+//! the contacts' own markers on the true surface). The per-step traffic: 112 bytes a body up,
+//! 144 bytes a body down.
 //!
-//! **Not here:** contacts (refused). The interior sums need the shape's signed distance on the
-//! device: spheres, cylinders and cuboids (`markers/interior`); when there are free bodies,
+//! **Limits.** The interior sums need the shape's signed distance on the device: spheres, cylinders and cuboids (`markers/interior`); when there are free bodies,
 //! every fixed or free body must be one. Without free bodies the interior sums are skipped and
 //! a fixed body's loads lack the interior term (zero in a steady flow), which the CPU reports.
 use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
-use crate::contact::step_bodies;
+use crate::contact::{step_bodies, Contacts, Walls};
 use crate::coupling::{shell_implicit, shell_inertia, BodyLoads, CouplingParams};
 use crate::lbm::Fluid;
 use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
@@ -42,6 +42,9 @@ pub struct DeviceCoupled {
     shell: Vec<(f64, Vec3)>,
     /// Per body, its velocity change in the last step (free bodies; zero otherwise).
     velocity_change: Vec<(Vec3, Vec3)>,
+    /// The contacts (on the host), with each body's contact markers on its true surface.
+    contacts: Option<Contacts>,
+    contact_markers: Vec<Vec<Marker>>,
 }
 
 impl DeviceCoupled {
@@ -52,7 +55,7 @@ impl DeviceCoupled {
     /// `workgroup` threads.
     ///
     /// # Errors
-    /// [`DeviceError::Mismatch`] for contacts, no forcing iteration, a marker spacing that is
+    /// [`DeviceError::Mismatch`] for invalid contact parameters, no forcing iteration, a marker spacing that is
     /// not positive and finite, a body that cannot be retracted, or (with free bodies) a fixed
     /// or free body whose signed distance the device does not have; the device fluid's and
     /// markers' errors.
@@ -63,9 +66,6 @@ impl DeviceCoupled {
         params: CouplingParams,
         workgroup: u32,
     ) -> Result<Self, DeviceError> {
-        if params.contacts.is_some() {
-            return Err(DeviceError::Mismatch("contacts are not coupled to the device's step yet".into()));
-        }
         if params.iterations == 0 {
             return Err(DeviceError::Mismatch("at least one forcing iteration is needed".into()));
         }
@@ -95,6 +95,23 @@ impl DeviceCoupled {
         for b in bodies.iter_mut().filter(|b| b.is_free()) {
             b.load_scheme = LoadScheme::Constant;
         }
+        // The contacts as `coupling::Coupled::new` makes them: markers on the true surface,
+        // the box's walls where it is not periodic.
+        let contact_markers: Vec<Vec<Marker>> =
+            bodies.iter().map(|b| b.shape().markers(params.marker_spacing)).collect();
+        let contacts = match params.contacts {
+            Some(cp) => {
+                if cp.substeps == 0 {
+                    return Err(DeviceError::Mismatch("contact substeps must be at least 1".into()));
+                }
+                let g = fluid.grid();
+                let walls = Walls::bounce_back([g.nx, g.ny, g.nz], device_fluid.periodic().map(|p| !p));
+                let c = Contacts::new(cp, walls, &bodies, &contact_markers)
+                    .map_err(|e| DeviceError::Mismatch(format!("contacts: {e}")))?;
+                Some(c)
+            }
+            None => None,
+        };
         let n = bodies.len();
         Ok(Self {
             host: fluid,
@@ -108,6 +125,8 @@ impl DeviceCoupled {
             interior,
             loads: vec![BodyLoads::default(); n],
             velocity_change: vec![(Vec3::zeros(), Vec3::zeros()); n],
+            contacts,
+            contact_markers,
         })
     }
 
@@ -141,20 +160,33 @@ impl DeviceCoupled {
             self.loads[b] =
                 BodyLoads { ibm_force: f, ibm_torque: t, interior_force, interior_torque, ..self.loads[b] };
         }
-        // Phase 8, as `coupling::loads::advance_bodies` without contacts.
+        // Phase 8, as `coupling::loads::advance_bodies`.
         let start: Vec<(Vec3, Vec3)> = self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)).collect();
         let (loads, shell, last, g) = (&self.loads, &self.shell, &self.velocity_change, self.gravity);
-        step_bodies(None, &mut self.bodies, &self.sets, 1, |b: usize, body: &RigidBody| {
-            let l = &loads[b];
-            shell_implicit(
-                body,
-                &shell[b],
-                &last[b],
-                (l.contact_force, l.contact_torque),
-                l.force() + body.net_weight(g, 1.0),
-                l.torque(),
-            )
-        });
+        let substeps = self.contacts.as_ref().map_or(1, |c| c.params().substeps);
+        let averaged = step_bodies(
+            self.contacts.as_mut(),
+            &mut self.bodies,
+            &self.contact_markers,
+            substeps,
+            |b: usize, body: &RigidBody| {
+                let l = &loads[b];
+                shell_implicit(
+                    body,
+                    &shell[b],
+                    &last[b],
+                    (l.contact_force, l.contact_torque),
+                    l.force() + body.net_weight(g, 1.0),
+                    l.torque(),
+                )
+            },
+        );
+        if let Some(avg) = averaged {
+            for (l, a) in self.loads.iter_mut().zip(avg) {
+                l.contact_force = a.force;
+                l.contact_torque = a.torque;
+            }
+        }
         for ((c, s), b) in self.velocity_change.iter_mut().zip(&start).zip(&self.bodies) {
             *c = if b.is_free() {
                 (b.velocity - s.0, b.angular_velocity - s.1)
@@ -193,7 +225,7 @@ impl DeviceCoupled {
     }
 
     /// The loads on body `b` from the last step, as `coupling::Coupled::loads` gives them
-    /// (the interior term zero when there are no free bodies; no contact loads).
+    /// (the interior term zero when there are no free bodies).
     pub fn loads(&self, b: usize) -> &BodyLoads {
         &self.loads[b]
     }

@@ -14,8 +14,8 @@
 //!   [`DeviceFluid`] (kinematics, stencils, interpolation, direct forcing, deterministic
 //!   spreading into its force field, the bodies' IBM loads); per step only the bodies' states
 //!   go up and their loads come down.
-//! - [`coupled`]: [`DeviceCoupled`], the coupled step without contacts: the fluid, the markers
-//!   and the interior sums on the device, the bodies on the host.
+//! - [`coupled`]: [`DeviceCoupled`], the coupled step: the fluid, the markers and the interior
+//!   sums on the device, the bodies and their contacts on the host.
 //! - `shaders/`: the kernels in WGSL (`common.wgsl` bindings and parameters,
 //!   `stream_collide.wgsl`, `links.wgsl`, compiled when a [`DeviceFluid`] is made; `ibm.wgsl`,
 //!   when a [`DeviceMarkers`] is made).
