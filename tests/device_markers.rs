@@ -586,6 +586,118 @@ fn free_bodies_fall_as_on_the_cpu() {
     );
 }
 
+/// The whole device step (fluid, markers, interior sums; bodies and contacts on the host) is
+/// bitwise the same for work groups of 1, 7 and 64 threads: two free spheres with contacts,
+/// 12 steps, the bodies' states and the fluid's populations and force field compared bit for
+/// bit.
+#[test]
+fn device_coupled_step_is_bitwise_the_same_for_any_work_group() {
+    let mut runs = Vec::new();
+    for wg in [1, 7, 64] {
+        let g = Grid::new(13, 12, 14);
+        let b = Boundaries::periodic()
+            .with(Face::ZMin, FaceBoundary::NoSlip)
+            .with(Face::ZMax, FaceBoundary::NoSlip);
+        let mut f = Fluid::<f32>::new(g, FluidParams::trt(0.1).with_body_force([1e-5, 0.0, 0.0]), b).unwrap();
+        f.initialize(|x, _, z| (1.0, [0.01 * (z as f64 / 14.0), 0.002 * (x as f64 / 13.0), 0.0]));
+        let a = RigidBody::new(Arc::new(Sphere::new(5.0)), 1.25, Motion::Free)
+            .with_position(Vec3::new(4.0, 6.0, 2.8));
+        let c = RigidBody::new(Arc::new(Cylinder::new(3.0, 6.0)), 1.25, Motion::Free)
+            .with_position(Vec3::new(9.0, 6.5, 8.0))
+            .with_orientation(Quat::from_euler_angles(0.4, 0.7, 0.0));
+        let params = CouplingParams {
+            gravity: [0.0, 0.0, -2e-4],
+            contacts: Some(slurry::contact::ContactParams::default()),
+            ..CouplingParams::default()
+        };
+        let mut dev = DeviceCoupled::new(ctx(), f, vec![a, c], params, wg).unwrap();
+        dev.run(12).unwrap();
+        let states: Vec<u64> = dev
+            .bodies()
+            .iter()
+            .flat_map(|b| {
+                let q = b.orientation.into_inner();
+                [b.position, b.velocity, b.angular_velocity]
+                    .iter()
+                    .flat_map(|v| v.iter().copied().collect::<Vec<_>>())
+                    .chain([q.w, q.i, q.j, q.k])
+                    .map(f64::to_bits)
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let host = dev.download().unwrap();
+        let pops: Vec<u64> = host.populations_all().iter().map(|v| v.to_bits()).collect();
+        let force: Vec<u32> =
+            dev.device_fluid().download_force().unwrap().iter().map(|v| v.to_bits()).collect();
+        runs.push((wg, states, pops, force));
+    }
+    let (_, s0, p0, f0) = &runs[0];
+    for (wg, s, p, f) in &runs[1..] {
+        assert!(s == s0, "bodies differ with work group {wg}");
+        assert!(p == p0, "populations differ with work group {wg}");
+        assert!(f == f0, "force field differs with work group {wg}");
+    }
+}
+
+/// A device run restored from its snapshot continues bitwise as the uninterrupted one; the
+/// snapshot is a CPU state, which `Coupled<f32>` restores and continues within the tolerance of
+/// `free_bodies_with_contacts_as_on_the_cpu`.
+#[test]
+fn device_coupled_restores_bitwise() {
+    let scene = || {
+        let g = Grid::new(13, 12, 14);
+        let b = Boundaries::periodic()
+            .with(Face::ZMin, FaceBoundary::NoSlip)
+            .with(Face::ZMax, FaceBoundary::NoSlip);
+        let mut f = Fluid::<f32>::new(g, FluidParams::trt(0.1), b).unwrap();
+        f.initialize(|_, _, _| (1.0, [0.0; 3]));
+        let a = RigidBody::new(Arc::new(Sphere::new(5.0)), 1.25, Motion::Free)
+            .with_position(Vec3::new(4.0, 6.0, 2.8))
+            .with_velocities(Vec3::new(0.0, 0.0, -0.01), Vec3::zeros());
+        let c = RigidBody::new(Arc::new(Cylinder::new(3.0, 6.0)), 1.25, Motion::Free)
+            .with_position(Vec3::new(9.0, 6.5, 8.0))
+            .with_orientation(Quat::from_euler_angles(0.4, 0.7, 0.0));
+        let params = CouplingParams {
+            gravity: [0.0, 0.0, -2e-4],
+            contacts: Some(slurry::contact::ContactParams::default()),
+            ..CouplingParams::default()
+        };
+        (f, vec![a, c], params)
+    };
+    let bits = |d: &mut DeviceCoupled| {
+        let mut v: Vec<u64> = d
+            .bodies()
+            .iter()
+            .flat_map(|b| [b.position, b.velocity, b.angular_velocity].map(|x| x.map(f64::to_bits)))
+            .flat_map(|x| x.iter().copied().collect::<Vec<_>>())
+            .collect();
+        v.extend(d.download().unwrap().populations_all().iter().map(|x| x.to_bits()));
+        v
+    };
+    let (f, bodies, params) = scene();
+    let mut a = DeviceCoupled::new(ctx(), f, bodies, params, 64).unwrap();
+    a.run(6).unwrap();
+    let state = a.snapshot().unwrap();
+    a.run(6).unwrap();
+    let (f, bodies, params) = scene();
+    let mut b = DeviceCoupled::new(ctx(), f, bodies, params, 64).unwrap();
+    b.restore(&state).unwrap();
+    b.run(6).unwrap();
+    assert!(bits(&mut a) == bits(&mut b), "the restored device run continues bitwise");
+    // The CPU continues the device's state.
+    let (f, bodies, params) = scene();
+    let mut cpu = Coupled::new(f, bodies, params).unwrap();
+    cpu.restore(&state).unwrap();
+    cpu.run(6).unwrap();
+    for k in 0..2 {
+        let dv = (cpu.bodies()[k].velocity - a.bodies()[k].velocity).norm();
+        assert!(
+            dv < 1e-4 * a.bodies()[k].velocity.norm() + 1e-9,
+            "body {k}: CPU continuation differs by {dv:.3e}"
+        );
+    }
+}
+
 /// The interior-fluid sums on the device against the CPU's (`Coupled::interior_momentum`)
 /// over one coupled step: a free sphere across the periodic seam, a free tilted cylinder next
 /// to a wall, a fixed cuboid, and a prescribed cylinder (no interior term), in the smooth flow.

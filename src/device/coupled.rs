@@ -21,9 +21,9 @@
 use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
 use crate::contact::{step_bodies, Contacts, Walls};
-use crate::coupling::{shell_implicit, shell_inertia, BodyLoads, CouplingParams};
+use crate::coupling::{shell_implicit, shell_inertia, BodyLoads, BodyState, CoupledState, CouplingParams};
 use crate::lbm::Fluid;
-use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
+use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Vec3};
 
 /// The coupled step of fixed and prescribed bodies with the fluid and the markers on the
 /// device (module docs).
@@ -251,5 +251,85 @@ impl DeviceCoupled {
         let force = self.fluid.download_force()?;
         self.host.raw_force_mut().copy_from_slice(&force);
         Ok(&self.host)
+    }
+
+    /// The state for a checkpoint at an even time step, as `coupling::Coupled::snapshot` takes
+    /// it (the fluid with the last step's force field, the bodies with their last velocity
+    /// change and contact loads): a CPU run's state, which either kind of run restores.
+    /// Downloads the fluid into the host mirror first.
+    ///
+    /// # Errors
+    /// At an odd time step ([`DeviceError::Mismatch`]); the read-back's.
+    pub fn snapshot(&mut self) -> Result<CoupledState<f32>, DeviceError> {
+        self.download()?;
+        let fluid = self.host.snapshot().map_err(|e| DeviceError::Mismatch(e.to_string()))?;
+        let bodies = self
+            .bodies
+            .iter()
+            .zip(&self.velocity_change)
+            .zip(&self.loads)
+            .map(|((b, c), l)| {
+                let q = b.orientation.into_inner();
+                BodyState {
+                    position: b.position,
+                    orientation: [q.w, q.i, q.j, q.k],
+                    velocity: b.velocity,
+                    angular_velocity: b.angular_velocity,
+                    time: b.time,
+                    velocity_change: *c,
+                    contact: (l.contact_force, l.contact_torque),
+                }
+            })
+            .collect();
+        Ok(CoupledState { fluid, bodies })
+    }
+
+    /// Restores a state taken by [`DeviceCoupled::snapshot`] or `coupling::Coupled::snapshot`
+    /// of the same case, as `Coupled::restore` does: the fluid (with the state's force field,
+    /// or a zero one) goes up to the device, the next placement clears the whole field, and the
+    /// bodies are set bit for bit. The continuation is bitwise the uninterrupted device run's.
+    ///
+    /// # Errors
+    /// A fluid state that does not fit or a body count that differs
+    /// ([`DeviceError::Mismatch`]).
+    pub fn restore(&mut self, s: &CoupledState<f32>) -> Result<(), DeviceError> {
+        if s.bodies.len() != self.bodies.len() {
+            return Err(DeviceError::Mismatch(format!(
+                "state has {} bodies, the case has {}",
+                s.bodies.len(),
+                self.bodies.len()
+            )));
+        }
+        self.host.restore(&s.fluid).map_err(|e| DeviceError::Mismatch(e.to_string()))?;
+        if s.fluid.force.is_none() {
+            self.host.enable_force_field();
+            self.host.clear_force_field();
+        }
+        self.fluid.upload(&self.host)?;
+        self.markers.reset();
+        for (((b, c), l), st) in self
+            .bodies
+            .iter_mut()
+            .zip(self.velocity_change.iter_mut())
+            .zip(self.loads.iter_mut())
+            .zip(&s.bodies)
+        {
+            *l = BodyLoads {
+                contact_force: st.contact.0,
+                contact_torque: st.contact.1,
+                ..BodyLoads::default()
+            };
+            // The quaternion as stored, bit for bit (as `Coupled::restore`).
+            let [w, x, y, z] = st.orientation;
+            *b = b
+                .clone()
+                .with_time(st.time)
+                .with_position(st.position)
+                .with_orientation(Quat::new_unchecked(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
+                .with_velocities(st.velocity, st.angular_velocity);
+            b.reset_load_history();
+            *c = st.velocity_change;
+        }
+        Ok(())
     }
 }
