@@ -139,6 +139,12 @@ impl DeviceMarkers {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(DeviceError::Wgpu(e.to_string()));
         }
+        // The 2-D dispatch's rows wide enough for the interior rows too (every kernel reads the
+        // row width from the parameters).
+        let max_groups = self.device.limits().max_compute_workgroups_per_dimension;
+        let groups = (n_rows.max(1) as u64).div_ceil(self.workgroup as u64).min(max_groups as u64) as u32;
+        self.row_groups = self.row_groups.max(groups);
+        self.params_words[8] = self.row_groups * self.workgroup;
         self.params_words[13] = n_rows as u32;
         self.interior = Some(Interior { rows: rows_kernel, bodies: bodies_kernel, n_rows, out });
         Ok(())
