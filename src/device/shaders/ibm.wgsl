@@ -622,9 +622,68 @@ fn store_sums(out: u32, s: array<f32, 7>, c: array<f32, 7>, dst: u32) {
     }
 }
 
+// The interval of t over which p + t v stays within h of the origin (|p + t v| < h), or an
+// empty one (first > second).
+fn slab(p: f32, v: f32, h: f32) -> vec2<f32> {
+    if abs(v) < 1e-12 {
+        if abs(p) < h {
+            return vec2<f32>(-3.0e38, 3.0e38);
+        }
+        return vec2<f32>(1.0, -1.0);
+    }
+    let ta = (-h - p) / v;
+    let tb = (h - p) / v;
+    return vec2<f32>(min(ta, tb), max(ta, tb));
+}
+
+// The interval of t over which p + t v lies in the disk |q_xy| < r (of the first `n` axes of
+// a sphere, n = 3, or a cylinder's cross-section, n = 2), or an empty one.
+fn disk(p: vec3<f32>, v: vec3<f32>, r: f32, n: u32) -> vec2<f32> {
+    var pp = p;
+    var vv = v;
+    if n == 2u {
+        pp.z = 0.0;
+        vv.z = 0.0;
+    }
+    let a = dot(vv, vv);
+    let c = dot(pp, pp) - r * r;
+    if a < 1e-12 {
+        if c < 0.0 {
+            return vec2<f32>(-3.0e38, 3.0e38);
+        }
+        return vec2<f32>(1.0, -1.0);
+    }
+    let b = dot(pp, vv);
+    let disc = b * b - a * c;
+    if disc < 0.0 {
+        return vec2<f32>(1.0, -1.0);
+    }
+    let sq = sqrt(disc);
+    return vec2<f32>((-b - sq) / a, (-b + sq) / a);
+}
+
+fn meet(a: vec2<f32>, b: vec2<f32>) -> vec2<f32> {
+    return vec2<f32>(max(a.x, b.x), min(a.y, b.y));
+}
+
+// The chord of the body-frame line p + t v through the shape grown by g (the sphere of radius
+// r + g, the flat-capped cylinder of radius r + g and half-length h + g, the box of half
+// extents + g): for g > 1/2 a superset, with a margin, of the nodes with sd < 1/2.
+fn chord(kind: u32, d: vec4<f32>, p: vec3<f32>, v: vec3<f32>, g: f32) -> vec2<f32> {
+    if kind == 1u {
+        return disk(p, v, d.x + g, 3u);
+    }
+    if kind == 2u {
+        return meet(disk(p, v, d.x + g, 2u), slab(p.z, v.z, d.y + g));
+    }
+    return meet(meet(slab(p.x, v.x, d.x + g), slab(p.y, v.y, d.y + g)), slab(p.z, v.z, d.z + g));
+}
+
 // First stage: one row of a body's box (its nodes in x order), the box being the W^3 nodes
 // from floor(centre - reach) on, reach the bounding radius plus 1/2 (every node with
-// sd < 1/2 lies in it).
+// sd < 1/2 lies in it). Only the row's nodes within the chord of the shape grown by 0.51 (and
+// one node beyond each end, for the chord's rounding) are visited: the others have a = 0 and
+// add nothing, so the sums are those of the whole row, in the same order.
 @compute @workgroup_size(WG)
 fn interior_rows(@builtin(global_invocation_id) gid: vec3<u32>) {
     let k = thread(gid);
@@ -652,8 +711,20 @@ fn interior_rows(@builtin(global_invocation_id) gid: vec3<u32>) {
         s[i] = 0.0;
         c[i] = 0.0;
     }
+    // Body frame along the row: q = R^T r = qa + t r0 with t = r.x.
+    let qa = r1 * (f32(yr) - frac.y) + r2 * (f32(zr) - frac.z);
+    let span = chord(kind, d, qa, r0, 0.51);
+    var first = 0u;
+    var end = 0u;
+    if span.x <= span.y {
+        // Nodes xr with xr - frac.x in the chord, one more each side, within the box.
+        let a = clamp(ceil(span.x + frac.x) - f32(lo.x) - 1.0, 0.0, f32(w));
+        let e = clamp(floor(span.y + frac.x) - f32(lo.x) + 2.0, 0.0, f32(w));
+        first = u32(a);
+        end = u32(e);
+    }
     if y != 0xffffffffu && z != 0xffffffffu {
-        for (var ix = 0u; ix < w; ix++) {
+        for (var ix = first; ix < end; ix++) {
             let xr = lo.x + i32(ix);
             let x = wrap(0u, origin.x + xr);
             if x == 0xffffffffu {
