@@ -145,8 +145,12 @@ impl DeviceCoupled {
         if self.interior {
             self.markers.interior(&self.fluid, true)?;
         }
-        let ibm = self.markers.loads()?;
-        let sums = if self.interior { Some(self.markers.interior_sums()?) } else { None };
+        let (ibm, sums) = if self.interior {
+            let (l, s) = self.markers.loads_and_interior_sums()?;
+            (l, Some(s))
+        } else {
+            (self.markers.loads()?, None)
+        };
         // Phase 7's loads, as `coupling::loads::collect_loads` composes them.
         for (b, (body, (f, t))) in self.bodies.iter().zip(ibm).enumerate() {
             let (mut interior_force, mut interior_torque) = (Vec3::zeros(), Vec3::zeros());

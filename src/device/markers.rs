@@ -667,7 +667,12 @@ impl DeviceMarkers {
         let bytes = 32 * self.n_bodies;
         let mut words = vec![0u32; (bytes + 16) / 4];
         self.read(&[(&self.loads, bytes), (&self.status, 16)], bytemuck::cast_slice_mut(&mut words))?;
-        let bad = words[bytes / 4];
+        self.parse_loads(&words)
+    }
+
+    /// The loads from the words of `loads` followed by the status word.
+    fn parse_loads(&self, words: &[u32]) -> Result<Vec<(Vec3, Vec3)>, DeviceError> {
+        let bad = words[8 * self.n_bodies];
         if bad != u32::MAX {
             return Err(DeviceError::Marker(bad as usize));
         }

@@ -32,7 +32,6 @@ use crate::rigid::{Cuboid, Cylinder, Motion, RigidBody, Shape, Sphere, Vec3};
 pub(super) struct Interior {
     rows: Kernel,
     bodies: Kernel,
-    n_rows: usize,
     out: wgpu::Buffer,
 }
 
@@ -151,7 +150,17 @@ impl DeviceMarkers {
         self.row_groups = self.row_groups.max(groups);
         self.params_words[8] = self.row_groups * self.workgroup;
         self.params_words[13] = n_rows as u32;
-        self.interior = Some(Interior { rows: rows_kernel, bodies: bodies_kernel, n_rows, out });
+        // Room in the staging buffer for the loads, the status and the sums in one read.
+        let need = (32 * self.n_bodies + 16 + 128 * self.n_bodies) as u64;
+        if self.staging.size() < need {
+            self.staging = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("ibm staging"),
+                size: need.next_multiple_of(16),
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+        }
+        self.interior = Some(Interior { rows: rows_kernel, bodies: bodies_kernel, out });
         Ok(())
     }
 
@@ -184,10 +193,40 @@ impl DeviceMarkers {
         let Some(i) = &self.interior else {
             return Err(DeviceError::Mismatch("the interior sums are off: call enable_interior".into()));
         };
-        let _ = i.n_rows;
         let mut v = vec![0.0f32; 32 * self.n_bodies];
         self.read(&[(&i.out, 128 * self.n_bodies)], bytemuck::cast_slice_mut(&mut v))?;
-        Ok((0..self.n_bodies)
+        Ok(self.parse_sums(&v))
+    }
+
+    /// [`DeviceMarkers::loads`] and [`DeviceMarkers::interior_sums`] in one read-back (one
+    /// wait for the device per step).
+    ///
+    /// # Errors
+    /// As the two.
+    #[allow(clippy::type_complexity)]
+    pub fn loads_and_interior_sums(
+        &self,
+    ) -> Result<(Vec<(Vec3, Vec3)>, Vec<[(Vec3, Vec3, f64); 2]>), DeviceError> {
+        let Some(i) = &self.interior else {
+            return Err(DeviceError::Mismatch("the interior sums are off: call enable_interior".into()));
+        };
+        let k = &self.kernels;
+        self.submit(&[&k.chunk_loads, &k.body_loads], false);
+        let (nb, sums) = (self.n_bodies, 128 * self.n_bodies);
+        let mut words = vec![0u32; (32 * nb + 16 + sums) / 4];
+        self.read(
+            &[(&self.loads, 32 * nb), (&self.status, 16), (&i.out, sums)],
+            bytemuck::cast_slice_mut(&mut words),
+        )?;
+        let loads = self.parse_loads(&words)?;
+        let v: Vec<f32> = words[8 * nb + 4..].iter().map(|w| f32::from_bits(*w)).collect();
+        Ok((loads, self.parse_sums(&v)))
+    }
+
+    /// The sums from the interior output's values (each sum plus its compensation, in f64).
+    #[allow(clippy::type_complexity)]
+    fn parse_sums(&self, v: &[f32]) -> Vec<[(Vec3, Vec3, f64); 2]> {
+        (0..self.n_bodies)
             .map(|b| {
                 [0, 1].map(|slot| {
                     let e = &v[32 * b + 16 * slot..32 * b + 16 * slot + 16];
@@ -195,6 +234,6 @@ impl DeviceMarkers {
                     (Vec3::new(x(0), x(1), x(2)), Vec3::new(x(3), x(4), x(5)), x(6))
                 })
             })
-            .collect())
+            .collect()
     }
 }
