@@ -2,7 +2,7 @@
 //! on a [`DeviceFluid`]'s populations and force field (kernels in `shaders/ibm.wgsl`).
 //!
 //! **What runs on the device** (phases 1, 2, 4, 5 and the IBM part of 7 of
-//! `coupling::Coupled::step`):
+//! `coupling::Coupled::step`; phases 3 and 7's interior sums below):
 //! - *kinematics*: each body's forcing markers (body frame, with their area weights) and
 //!   owners are uploaded once; per step only the bodies' states go up
 //!   ([`DeviceMarkers::set_bodies`]: 112 bytes a body: position, rotation matrix, velocity,
@@ -42,8 +42,10 @@
 //! step, far beyond the Mach limit. A node of `k` contributions differs from the exact sum of
 //! the f32 terms by at most `k 2⁻⁴¹` plus the final conversion's ulp. (A gather over a cell
 //! list sorted by cell and marker, as the CPU's slab order is, would need a deterministic sort
-//! per step and a list of the nodes to visit; FluidX3D (Lehmann, "FluidX3D", 2022–; ideas
-//! only, none of its code) spreads with floating-point atomics, whose order, hence bits, vary.)
+//! per step and a list of the nodes to visit. FluidX3D's `spread_force` (M. Lehmann,
+//! `src/kernel.cpp` of github.com/ProjectPhysX/FluidX3D; read for the idea only, its licence
+//! forbids reuse) spreads with floating-point atomic additions, whose order, hence bits, vary
+//! from run to run.)
 //!
 //! **Clearing.** At each [`DeviceMarkers::place`] the sums and the field are zeroed at the
 //! previous stencils' nodes (the only nodes where they are non-zero), as phase 4 clears the
