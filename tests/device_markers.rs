@@ -126,34 +126,77 @@ fn position_error(r: f64) -> f64 {
     16.0 * EPS * (r + 1.0)
 }
 
+/// The device's position error of each marker, measured: its arm `R r` against the CPU's
+/// `X − c` (f64), plus the rounding of the f32 sum `frac + R r` (`≤ u (|r| + 1)`), twice for
+/// margin; at most [`position_error`].
+fn measured_position_error(
+    markers: &DeviceMarkers,
+    bodies: &[RigidBody],
+    pos: &[[f64; 3]],
+    radius: &[f64],
+) -> Vec<f64> {
+    let arms = markers.marker_arms().unwrap();
+    let mut owner = Vec::new();
+    for (b, body) in bodies.iter().enumerate() {
+        owner.extend(std::iter::repeat_n(b, body.shape().retracted_markers(0.8, 0.36).unwrap().len()));
+    }
+    (0..pos.len())
+        .map(|m| {
+            let c = bodies[owner[m]].position;
+            let d = (0..3).map(|a| (arms[m][a] as f64 - (pos[m][a] - c[a])).abs()).fold(0.0, f64::max);
+            let e = 2.0 * (d + EPS * (radius[m] + 1.0));
+            assert!(e <= position_error(radius[m]), "marker {m}: arm error {d:.3e}");
+            e
+        })
+        .collect()
+}
+
 fn setup(
     steps: u64,
     workgroup: u32,
+) -> (Fluid<f32>, DeviceFluid, Vec<RigidBody>, Vec<Vec<Marker>>, DeviceMarkers) {
+    setup_with(steps, workgroup, DeltaKernel::Roma3)
+}
+
+fn setup_with(
+    steps: u64,
+    workgroup: u32,
+    kernel: DeltaKernel,
 ) -> (Fluid<f32>, DeviceFluid, Vec<RigidBody>, Vec<Vec<Marker>>, DeviceMarkers) {
     let host = fluid(steps);
     let dev = DeviceFluid::new(ctx(), &host, 64).expect("device fluid");
     let bodies = bodies();
     let sets = marker_sets(&bodies);
     let refs: Vec<&[Marker]> = sets.iter().map(|s| s.as_slice()).collect();
-    let mut markers = DeviceMarkers::new(&dev, &refs, DeltaKernel::Roma3, workgroup).expect("device markers");
+    let mut markers = DeviceMarkers::new(&dev, &refs, kernel, workgroup).expect("device markers");
     markers.set_bodies(&bodies);
     (host, dev, bodies, sets, markers)
 }
 
 /// Interpolation at the markers of the smooth flow, at an even and an odd time (both AA
-/// layouts), against `ibm::interpolate` of the CPU fluid's own `macroscopic` velocity.
+/// layouts), against `ibm::interpolate` of the CPU fluid's own `macroscopic` velocity, for the
+/// three kernels.
 ///
-/// The bound per marker: the marker's position error `δx` moves the interpolant by at most
-/// `Σ_n |∂δ_n/∂X| δx |u_n − u(X)|`, with `|φ'| ≤ 1` for Roma's kernel (three axes, three
-/// points each, the nodes within `1.5 √3` of the marker, where `|u_n − u(X)| ≤ 2.6 G`):
-/// `≤ 3 · 3 · 2.6 G δx < 24 G δx`; and f32 round-off: the moments `ρ`, `j` are sums of 19
-/// terms `|h_i| ≤ S` (≤ 18 roundings each), `u` one division and one fused term, the weights a
-/// few roundings each and the 27-term accumulation: `≤ 64 u (S + U)` with `S` the largest
-/// `Σ|h_i|` of the fluid and `U` its largest speed.
+/// The bound per marker: the marker's position error `δx` (measured from its arm, see
+/// `measured_position_error`) moves the interpolant by at most
+/// `Σ_n |∂δ_n/∂X| δx |u_n − u(X)|`. Per axis, a 1-D weight `φ_k/S` (`S` the kept weights' sum,
+/// 1 away from a wall and at least ½ next to one, where the dropped points mirror the kept
+/// ones at worst) has `|d(φ_k/S)/dx| ≤ 2L + 4WL` with `|φ'| ≤ L = 1` for every kernel and `W`
+/// points; three axes, `W` points each, the nodes within `h√3` of the marker (`h` the
+/// support), where `|u_n − u(X)| ≤ h√3 G`: `≤ 3W(2 + 4W) h√3 G δx`. And f32 round-off: the
+/// moments `ρ`, `j` are sums of 19 terms `|h_i| ≤ S` (≤ 18 roundings each), `u` one division
+/// and one fused term, the weights a few roundings each and the `W³`-term accumulation:
+/// `≤ 64 u (S + U) W³/27` with `S` the largest `Σ|h_i|` of the fluid and `U` its largest
+/// speed.
 #[test]
 fn interpolation_matches_the_cpu() {
-    for steps in [0, 1] {
-        let (host, mut dev, bodies, sets, mut markers) = setup(steps, 64);
+    for (kernel, steps) in [
+        (DeltaKernel::Roma3, 0),
+        (DeltaKernel::Roma3, 1),
+        (DeltaKernel::Linear, 1),
+        (DeltaKernel::Peskin4, 0),
+    ] {
+        let (host, mut dev, bodies, sets, mut markers) = setup_with(steps, 64, kernel);
         let t = std::time::Instant::now();
         // The first placement clears the whole field (the coupling owns it); the host's field
         // goes up again, so that the velocity's F/2 term is tested with a field.
@@ -163,8 +206,9 @@ fn interpolation_matches_the_cpu() {
         let got = markers.marker_velocities().unwrap();
         let seconds = t.elapsed().as_secs_f64();
         let (pos, _, radius) = cpu_markers(&bodies, &sets);
+        let dx = measured_position_error(&markers, &bodies, &pos, &radius);
         let g = host.grid();
-        let mut st = Stencils::new(DeltaKernel::Roma3);
+        let mut st = Stencils::new(kernel);
         st.build(g, [true, true, false], &pos).unwrap();
         let field = FnField {
             nodes: g.nodes(),
@@ -184,9 +228,11 @@ fn interpolation_matches_the_cpu() {
             u_max = u_max.max(host.macroscopic(x, y, z).1.iter().fold(0.0f64, |a, v| a.max(v.abs())));
         }
         let grad = U0 * 1.5 * K.iter().fold(0.0f64, |a, &k| a.max(k)) * 3.0;
+        let (w, h) = (kernel.width() as f64, kernel.support());
         let (mut worst, mut worst_ratio) = (0.0f64, 0.0f64);
         for m in 0..pos.len() {
-            let tol = 24.0 * grad * position_error(radius[m]) + 64.0 * EPS * (s_max + u_max);
+            let tol = 3.0 * w * (2.0 + 4.0 * w) * h * 3f64.sqrt() * grad * dx[m]
+                + 64.0 * EPS * (s_max + u_max) * w.powi(3) / 27.0;
             for a in 0..3 {
                 let d = (got[m][a] as f64 - want[m][a]).abs();
                 worst = worst.max(d);
@@ -200,26 +246,34 @@ fn interpolation_matches_the_cpu() {
             }
         }
         println!(
-            "interpolation at {} markers, time {steps}: max |Δu| {worst:.3e} (largest |Δu|/bound {worst_ratio:.3}), \
-             place + interpolate + download {seconds:.3} s on {}",
+            "interpolation ({}) at {} markers, time {steps}: max |Δu| {worst:.3e} (largest |Δu|/bound \
+             {worst_ratio:.1e}), place + interpolate + download {seconds:.3} s on {}",
+            kernel.name(),
             pos.len(),
             dev.adapter()
         );
     }
 }
 
-/// Random marker forces spread into the force field, against `ibm::spread` in f64.
+/// Random marker forces spread into the force field, against `ibm::spread` in f64, for the
+/// three kernels.
 ///
 /// The bound per node, from every marker `m` whose stencil holds it: the 3-D weight moves by at
-/// most `3 |φ'| δx_m · r_w` (three 1-D factors, `|φ'| ≤ 1`, `r_w ≤ 1.25` the largest
-/// renormalisation next to a wall: the kept weights' sum is at least `φ(0) + φ(1) ≥ 0.8`),
-/// and is rounded a few times more (`≤ 8 u w`); the product `w F` and the final conversion
-/// each round once (`≤ u`), the fixed point by `2⁻⁴¹` per term: together
-/// `Σ_m (4 δx_m + 10 u w_m) |F_m| + 2⁻⁴¹ + u |F_n|`. Every node is compared, so the field the
-/// host uploaded (non-zero everywhere) must have been cleared by the first placement.
+/// most `3 (2 + 4W) δx_m` (`δx_m` measured, `measured_position_error`) (three 1-D factors, each `|d(φ_k/S)/dx| ≤ 2L + 4WL`, `L = 1`, as in
+/// `interpolation_matches_the_cpu`), and is rounded a few times more (`≤ 8 u w`); the product
+/// `w F` and the final conversion each round once (`≤ u`), the fixed point by `2⁻⁴¹` per term:
+/// together `Σ_m (3 (2 + 4W) δx_m + 10 u w_m) |F_m| + 2⁻⁴¹ + u |F_n|`. Every node is compared,
+/// so the field the host uploaded (non-zero everywhere) must have been cleared by the first
+/// placement.
 #[test]
 fn spreading_matches_the_cpu() {
-    let (host, dev, bodies, sets, mut markers) = setup(0, 64);
+    for kernel in DeltaKernel::ALL {
+        spreading_matches_the_cpu_with(kernel);
+    }
+}
+
+fn spreading_matches_the_cpu_with(kernel: DeltaKernel) {
+    let (host, dev, bodies, sets, mut markers) = setup_with(0, 64, kernel);
     let (pos, _, radius) = cpu_markers(&bodies, &sets);
     let mut rng = SplitMix64(3);
     let forces: Vec<[f32; 3]> =
@@ -229,8 +283,9 @@ fn spreading_matches_the_cpu() {
     markers.spread_forces(&dev, &forces).unwrap();
     let got = dev.download_force().unwrap();
     let seconds = t.elapsed().as_secs_f64();
+    let dx = measured_position_error(&markers, &bodies, &pos, &radius);
     let g = host.grid();
-    let mut st = Stencils::new(DeltaKernel::Roma3);
+    let mut st = Stencils::new(kernel);
     st.build(g, [true, true, false], &pos).unwrap();
     let f64_forces: Vec<[f64; 3]> = forces.iter().map(|f| f.map(|v| v as f64)).collect();
     let mut want = vec![[0.0; 3]; g.nodes()];
@@ -238,7 +293,8 @@ fn spreading_matches_the_cpu() {
     let mut bound = vec![2f64.powi(-41); g.nodes()];
     for m in 0..pos.len() {
         let fm = forces[m].iter().fold(0.0f64, |a, v| a.max((*v as f64).abs()));
-        st.for_each_node(m, |n, w| bound[n] += (4.0 * position_error(radius[m]) + 10.0 * EPS * w) * fm);
+        let dw = 3.0 * (2.0 + 4.0 * kernel.width() as f64) * dx[m];
+        st.for_each_node(m, |n, w| bound[n] += (dw + 10.0 * EPS * w) * fm);
     }
     let layout = host.padded_layout();
     let stride = got.len() / 3;
@@ -261,8 +317,9 @@ fn spreading_matches_the_cpu() {
         touched += (want[n] != [0.0; 3]) as usize;
     }
     println!(
-        "spreading of {} markers onto {touched} nodes: max |ΔF| {worst:.3e} (largest |ΔF|/bound {worst_ratio:.3}), \
-         place + spread + download {seconds:.3} s on {}",
+        "spreading ({}) of {} markers onto {touched} nodes: max |ΔF| {worst:.3e} (largest |ΔF|/bound \
+         {worst_ratio:.1e}), place + spread + download {seconds:.3} s on {}",
+        kernel.name(),
         pos.len(),
         dev.adapter()
     );
