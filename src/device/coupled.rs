@@ -141,7 +141,8 @@ impl DeviceCoupled {
             self.markers.interior(&self.fluid, false)?;
         }
         self.markers.force(&self.fluid, self.iterations)?;
-        self.fluid.step()?;
+        // Queued behind the forcing; the read-back of the loads below waits for both.
+        self.fluid.submit_steps(1);
         if self.interior {
             self.markers.interior(&self.fluid, true)?;
         }

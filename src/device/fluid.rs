@@ -652,6 +652,16 @@ impl DeviceFluid {
     /// # Errors
     /// [`DeviceError::Wgpu`] when the device reports an error.
     pub fn run(&mut self, n: u64) -> Result<(), DeviceError> {
+        self.submit_steps(n);
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+        Ok(())
+    }
+
+    /// Records and submits `n` time steps without waiting for them (the coupled step waits once,
+    /// for its loads, after the fluid step and the sums that follow it on the same queue).
+    pub(super) fn submit_steps(&mut self, n: u64) {
         let ff = self.force.is_some() as usize;
         let dispatch =
             [(self.grid.nx as u32).div_ceil(self.workgroup), self.grid.ny as u32, self.grid.nz as u32];
@@ -680,10 +690,6 @@ impl DeviceFluid {
             self.queue.submit([enc.finish()]);
             left -= batch;
         }
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        Ok(())
     }
 
     /// Density and velocity of every interior node (obstacle nodes: `ρ = 1`, `u = 0`), through
