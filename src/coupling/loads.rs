@@ -83,7 +83,7 @@ impl<T: Real> Coupled<T> {
 
 /// The forcing shell of a body's markers (module docs): `K_t = Σ A_m` and, per body axis,
 /// `K_r,k = Σ A_m (|r_m|² − r_{m,k}²)` (a unit-thickness shell of fluid on the surface).
-pub(super) fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
+pub(crate) fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
     let mut kt = 0.0;
     let mut kr = Vec3::zeros();
     for m in markers {
@@ -101,7 +101,7 @@ pub(super) fn shell_inertia(markers: &[Marker]) -> (f64, Vec3) {
 /// torque. `D` vanishes whenever the velocity change is steady (at rest on a bed, in steady
 /// fall, in uniform acceleration), so every steady balance is the physical one; without
 /// contacts `F + D = m/(m + K_t) (F + K_t ΔUⁿ)`.
-pub(super) fn shell_implicit(
+pub(crate) fn shell_implicit(
     body: &RigidBody,
     shell: &(f64, Vec3),
     change: &(Vec3, Vec3),

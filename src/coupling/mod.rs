@@ -183,7 +183,9 @@ mod moments;
 
 use band::{band_runs, run_nodes, Band};
 use interior::{InteriorNodes, Moment};
-use loads::shell_inertia;
+// The forcing shell's inertia and its implicit reaction are also the device's coupled step's,
+// which advances its bodies on the host as this module does.
+pub(crate) use loads::{shell_implicit, shell_inertia};
 use moments::Moments;
 
 /// Options of the coupling.

@@ -88,6 +88,13 @@ pub struct DeviceFluid {
     /// A staging buffer for downloads, one direction long.
     staging: wgpu::Buffer,
     time: u64,
+    /// The uniform body force (as the sweep's parameters hold it).
+    body: [f32; 3],
+    /// Which axes are periodic (the others are walled).
+    periodic: [bool; 3],
+    /// Bumped whenever the force field's buffers are made anew (markers bound to the old ones
+    /// must be made again).
+    force_generation: u64,
 }
 
 /// Checks `need ≤ limit`.
@@ -301,6 +308,11 @@ impl DeviceFluid {
             link_pipes,
             staging,
             time: fluid.time(),
+            body: fluid.raw_body(),
+            periodic: std::array::from_fn(|a| {
+                fluid.boundaries().get(crate::lattice::Face::from_axis(a, true)).is_periodic()
+            }),
+            force_generation: 0,
         };
         me.upload(fluid)?;
         me.sweep_pipelines()?;
@@ -502,11 +514,14 @@ impl DeviceFluid {
                     self.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some(["force x", "force y", "force z"][a]),
                         size: (self.stride * 4) as u64,
-                        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                        usage: wgpu::BufferUsages::STORAGE
+                            | wgpu::BufferUsages::COPY_DST
+                            | wgpu::BufferUsages::COPY_SRC,
                         mapped_at_creation: false,
                     })
                 };
                 self.force = Some([make(0), make(1), make(2)]);
+                self.force_generation += 1;
             }
             if let Some(bufs) = &self.force {
                 for (a, b) in bufs.iter().enumerate() {
@@ -546,26 +561,82 @@ impl DeviceFluid {
         let stride = self.stride;
         let f = fluid.raw_populations_mut(self.time);
         for (q, b) in self.pops.iter().enumerate() {
-            let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-            enc.copy_buffer_to_buffer(b, 0, &self.staging, 0, (stride * 4) as u64);
-            self.queue.submit([enc.finish()]);
-            let (tx, rx) = std::sync::mpsc::channel();
-            self.staging.map_async(wgpu::MapMode::Read, .., move |r| {
-                let _ = tx.send(r);
-            });
-            self.device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-            rx.recv()
-                .map_err(|e| DeviceError::Wgpu(e.to_string()))?
-                .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-            {
-                let view = self.staging.get_mapped_range(..).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-                f[q * stride..(q + 1) * stride].copy_from_slice(bytemuck::cast_slice(&view[..]));
-            }
-            self.staging.unmap();
+            self.read_back(b, &mut f[q * stride..(q + 1) * stride])?;
         }
         Ok(())
+    }
+
+    /// The device's force density field, `3·stride` values in the host's layout
+    /// (`force[a·stride + n]`, padded node `n`), or nothing while the field is off. Blocks until
+    /// the device is done.
+    ///
+    /// # Errors
+    /// [`DeviceError::Wgpu`] when the read-back fails.
+    pub fn download_force(&self) -> Result<Vec<f32>, DeviceError> {
+        let Some(bufs) = &self.force else { return Ok(Vec::new()) };
+        let stride = self.stride;
+        let mut out = vec![0.0f32; 3 * stride];
+        for (a, b) in bufs.iter().enumerate() {
+            self.read_back(b, &mut out[a * stride..(a + 1) * stride])?;
+        }
+        Ok(out)
+    }
+
+    /// Copies the first `out.len()` values of `buffer` (at most one direction's array) into
+    /// `out` through the staging buffer.
+    fn read_back(&self, buffer: &wgpu::Buffer, out: &mut [f32]) -> Result<(), DeviceError> {
+        let bytes = (out.len() * 4) as u64;
+        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+        enc.copy_buffer_to_buffer(buffer, 0, &self.staging, 0, bytes);
+        self.queue.submit([enc.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.staging.map_async(wgpu::MapMode::Read, ..bytes, move |r| {
+            let _ = tx.send(r);
+        });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| DeviceError::Wgpu(e.to_string()))?
+            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+        {
+            let view =
+                self.staging.get_mapped_range(..bytes).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+            out.copy_from_slice(bytemuck::cast_slice(&view[..]));
+        }
+        self.staging.unmap();
+        Ok(())
+    }
+
+    /// Which axes are periodic (the host fluid's faces when this device fluid was made).
+    pub fn periodic(&self) -> [bool; 3] {
+        self.periodic
+    }
+
+    /// The device and queue, for the other kernels that work on this fluid's buffers.
+    pub(super) fn device_queue(&self) -> (&wgpu::Device, &wgpu::Queue) {
+        (&self.device, &self.queue)
+    }
+
+    /// The population buffers, one per direction (`stride` f32 each).
+    pub(super) fn population_buffers(&self) -> &[wgpu::Buffer] {
+        &self.pops
+    }
+
+    /// The force field's buffers while it is on, and their generation (changes when they are
+    /// made anew).
+    pub(super) fn force_buffers(&self) -> Option<(&[wgpu::Buffer; 3], u64)> {
+        self.force.as_ref().map(|f| (f, self.force_generation))
+    }
+
+    /// The uniform body force, in f32.
+    pub(super) fn body_force(&self) -> [f32; 3] {
+        self.body
+    }
+
+    /// Distance between the starts of the padded arrays' components (as the host fluid's).
+    pub(super) fn stride(&self) -> usize {
+        self.stride
     }
 
     /// Advances one time step (one AA half-cycle, as [`Fluid::step`]).
@@ -581,6 +652,16 @@ impl DeviceFluid {
     /// # Errors
     /// [`DeviceError::Wgpu`] when the device reports an error.
     pub fn run(&mut self, n: u64) -> Result<(), DeviceError> {
+        self.submit_steps(n);
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+        Ok(())
+    }
+
+    /// Records and submits `n` time steps without waiting for them (the coupled step waits once,
+    /// for its loads, after the fluid step and the sums that follow it on the same queue).
+    pub(super) fn submit_steps(&mut self, n: u64) {
         let ff = self.force.is_some() as usize;
         let dispatch =
             [(self.grid.nx as u32).div_ceil(self.workgroup), self.grid.ny as u32, self.grid.nz as u32];
@@ -609,10 +690,6 @@ impl DeviceFluid {
             self.queue.submit([enc.finish()]);
             left -= batch;
         }
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        Ok(())
     }
 
     /// Density and velocity of every interior node (obstacle nodes: `ρ = 1`, `u = 0`), through

@@ -11,16 +11,28 @@
 //! - [`Context`]: the adapter and its device and queue, chosen once per process.
 //! - [`fluid`]: [`DeviceFluid`], the device copy of the fluid and its step.
 //! - [`bandwidth`]: the device's copy bandwidth, the ceiling the step is quoted against.
+//! - [`markers`]: [`DeviceMarkers`], the immersed-boundary markers of the coupled step on a
+//!   [`DeviceFluid`] (kinematics, stencils, interpolation, direct forcing, deterministic
+//!   spreading into its force field, the bodies' IBM loads); per step only the bodies' states
+//!   go up and their loads come down.
+//! - [`coupled`]: [`DeviceCoupled`], the coupled step: the fluid, the markers and the interior
+//!   sums on the device, the bodies and their contacts on the host.
 //! - `shaders/`: the kernels in WGSL (`common.wgsl` bindings and parameters,
-//!   `stream_collide.wgsl`, `links.wgsl`), compiled when a [`DeviceFluid`] is made.
+//!   `stream_collide.wgsl`, `links.wgsl`, compiled when a [`DeviceFluid`] is made; `ibm.wgsl`,
+//!   when a [`DeviceMarkers`] is made).
 //!
-//! The CPU solver ([`crate::lbm`]) is the reference and is not changed by this module: the
-//! device runs the same operations in the same order on the same f32 storage.
+//! The CPU solver ([`crate::lbm`], [`crate::ibm`], `coupling`) is the reference and is not
+//! changed by this module: the device runs the same operations in the same order on the same
+//! f32 storage (the markers in f32 where the CPU's transfer works in f64).
 
 pub mod bandwidth;
+pub mod coupled;
 pub mod fluid;
+pub mod markers;
 
+pub use coupled::DeviceCoupled;
 pub use fluid::DeviceFluid;
+pub use markers::DeviceMarkers;
 
 /// Why the device backend cannot be used.
 #[derive(Debug, thiserror::Error)]
@@ -52,6 +64,10 @@ pub enum DeviceError {
         /// The adapter's name.
         adapter: String,
     },
+    /// A marker could not be given a stencil (outside the box on a walled axis, or not
+    /// finite): the lowest such marker (global order).
+    #[error("marker {0}: outside the box on a walled axis, or not finite")]
+    Marker(usize),
     /// A state that does not belong to this device fluid.
     #[error("{0}")]
     Mismatch(String),

@@ -960,6 +960,11 @@ impl<T: Real> Fluid<T> {
         &self.force
     }
 
+    /// The padded force density field, to overwrite with a copy (empty while off).
+    pub(crate) fn raw_force_mut(&mut self) -> &mut [T] {
+        &mut self.force
+    }
+
     /// Per padded node: ghost or obstacle (never collided).
     pub(crate) fn raw_solid(&self) -> &[bool] {
         &self.solid
