@@ -387,7 +387,7 @@ pub struct SteadyTest {
 /// β = Σ (rev_i − r̄)(v_i − v̄) / Σ (rev_i − r̄)²,   drift = β · window_revs,
 /// ```
 ///
-/// and the series counts as steady when it spans ([`span_of`]) at least `window_revs` revolutions without a
+/// and the series counts as steady when it spans (`span_of`) at least `window_revs` revolutions without a
 /// hole longer than [`HOLE_FRACTION`] of the window (the window is fully covered), its drift is
 /// within the tolerance, and the window resolves a drift of that size:
 ///
