@@ -3,7 +3,8 @@
 //! Vulkan adapter the machine has (a GPU, or Mesa's lavapipe in CI: `cargo xtask setup`).
 //!
 //! The case is the small stirred tank of `examples/stirred_tank_particles.toml` (a PBT above 26
-//! free cylinders with contacts, 36³), shortened to 100 steps. The device performs the CPU's
+//! free cylinders with contacts, 36³), shortened to 100 steps: the device run against the CPU
+//! run, its checkpoint resumed on either processor, and a start from a state pack on either. The device performs the CPU's
 //! operations in the CPU's order on the same f32 populations, with the markers in f32 where
 //! the CPU's transfer works in f64, so the two runs differ by round-off that the flow carries
 //! and amplifies: `tests/device_markers.rs` measured ~1e-6 relative on the loads after a
@@ -72,7 +73,8 @@ const MASS: f64 = 1e-9;
 /// flow differs by round-off that grows over the steps (~1e-6 relative after a few dozen steps
 /// in `tests/device_markers.rs`); over 100 steps 1e-5 leaves a factor of ten for that growth
 /// while a load one step off (the torque changes by several per cent a step during the ramp)
-/// or a missing interior term fails by orders of magnitude. Measured: at most 5e-7.
+/// or a missing interior term fails by orders of magnitude. Measured: at most 5e-7 (1.1e-6
+/// after a state pack, where the rows from step 60 have a smaller largest torque).
 const TORQUE: f64 = 1e-5;
 /// The particles' mean height (lattice units, ~6.6): the particles move by ~1e-2 over 100
 /// steps, so a relative velocity difference of 1e-5 moves them by ~1e-7; 1e-5 allows the
@@ -185,4 +187,28 @@ fn a_device_checkpoint_resumes_on_the_device_and_on_the_cpu() {
         "CPU to 50, device to 100 vs the CPU throughout",
         differences(&get("cpu50"), &get("cpu-whole")),
     );
+}
+
+#[test]
+fn a_state_pack_starts_a_device_run_as_it_starts_a_cpu_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = |n: &str| tmp.path().join(n);
+    run_to(&dir("cpu50"), 50, "cpu", false);
+    let pack = dir("stirred.pack.h5");
+    let step = slurry::run::write_run_state_pack(&dir("cpu50"), &pack, "test").expect("a state pack");
+    assert_eq!(step, 50);
+    let mut series_of = Vec::new();
+    for device in ["cpu", "gpu"] {
+        let mut case = Case::parse(&common::stirred_tank(&run_table(100), ""), "stirred.toml").unwrap();
+        case.run.device = if device == "gpu" { slurry::case::Device::Gpu } else { slurry::case::Device::Cpu };
+        let out = dir(&format!("pack-{device}"));
+        let opts = RunOptions { quiet: true, ..RunOptions::default() };
+        slurry::run::run_case_from_pack(&case, &out, opts, &pack)
+            .unwrap_or_else(|e| panic!("{device} from the pack: {e:#}"));
+        let s = series(&out, &COLUMNS);
+        let steps: Vec<f64> = s.iter().map(|r| r[0]).collect();
+        assert_eq!(steps, vec![60.0, 80.0, 100.0], "{device}: the rows after the pack's step");
+        series_of.push(s);
+    }
+    assert_close("from a pack at 50, device vs CPU to 100", differences(&series_of[0], &series_of[1]));
 }
