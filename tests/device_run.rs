@@ -4,10 +4,10 @@
 //!
 //! The case is the small stirred tank of `examples/stirred_tank_particles.toml` (a PBT above 26
 //! free cylinders with contacts, 36³), shortened to 100 steps: the device run against the CPU
-//! run, its checkpoint resumed on either processor, and a start from a state pack on either. The device performs the CPU's
-//! operations in the CPU's order on the same f32 populations, with the markers in f32 where
-//! the CPU's transfer works in f64, so the two runs differ by round-off that the flow carries
-//! and amplifies: `tests/device_markers.rs` measured ~1e-6 relative on the loads after a
+//! run, its checkpoint resumed on either processor, and a start from a state pack on either.
+//! The device performs the CPU's operations in the CPU's order on the same f32 populations,
+//! with the markers in f32 where the CPU's transfer works in f64, so the two runs differ by
+//! round-off that the flow carries and amplifies: `tests/device_markers.rs` measured ~1e-6 relative on the loads after a
 //! few dozen steps, growing over the steps. The tolerances below are stated against that;
 //! each test prints what it measured. Device runs themselves are compared bitwise.
 //!
