@@ -113,7 +113,7 @@ pub struct RunArgs {
     #[arg(long, value_name = "PACK", conflicts_with = "resume")]
     pub from_pack: Option<PathBuf>,
     /// Which processor steps the fluid, overriding the case's `[run] device`: `cpu`, or `gpu`
-    /// (the device backend through Vulkan; fluid-only cases in f32 so far).
+    /// (the device backend through Vulkan; f32 cases, with or without particles and impeller).
     #[arg(long, value_name = "DEVICE", value_parser = ["cpu", "gpu"])]
     pub device: Option<String>,
     /// How the run starts, threads, progress.

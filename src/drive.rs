@@ -7,10 +7,10 @@
 use anyhow::Context;
 
 use crate::case::{Case, ImpellerSetup, ParticleInit};
-use crate::coupling::Coupled;
+use crate::coupling::{BodyLoads, Coupled};
 use crate::io::{ParticleFrame, ParticleStatic};
 use crate::lbm::{Fluid, Real};
-use crate::rigid::Vec3;
+use crate::rigid::{RigidBody, Vec3};
 
 /// The case's fluid (grid, parameters, box faces) in its initial state.
 ///
@@ -41,8 +41,16 @@ pub fn coupled<T: Real>(
 /// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of the
 /// last step (a frame of `particles.h5`; also the bed of `slurry settle`).
 pub(crate) fn particle_frame<T: Real>(c: &Coupled<T>, n: usize) -> ParticleFrame {
-    let step = c.fluid().time();
-    let bodies = &c.bodies()[..n];
+    particle_frame_of(c.fluid().time(), &c.bodies()[..n], |b| c.loads(b))
+}
+
+/// The frame of `bodies` at step `step`, body `b`'s loads of the last step being `loads(b)`
+/// (the CPU's coupling or the device's, [`crate::device::DeviceCoupled::loads`]).
+pub(crate) fn particle_frame_of<'a>(
+    step: u64,
+    bodies: &[RigidBody],
+    loads: impl Fn(usize) -> &'a BodyLoads,
+) -> ParticleFrame {
     let v3 = |v: &Vec3| [v.x, v.y, v.z];
     ParticleFrame {
         step,
@@ -57,8 +65,8 @@ pub(crate) fn particle_frame<T: Real>(c: &Coupled<T>, n: usize) -> ParticleFrame
             .collect(),
         velocity: bodies.iter().map(|b| v3(&b.velocity)).collect(),
         angular_velocity: bodies.iter().map(|b| v3(&b.angular_velocity)).collect(),
-        force: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_force(b))).collect(),
-        torque: (0..bodies.len()).map(|b| v3(&c.hydrodynamic_torque(b))).collect(),
+        force: (0..bodies.len()).map(|b| v3(&loads(b).force())).collect(),
+        torque: (0..bodies.len()).map(|b| v3(&loads(b).torque())).collect(),
     }
 }
 

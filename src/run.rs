@@ -18,10 +18,10 @@
 //! process at once.
 //!
 //! **Particles.** When the case has particles, the fluid and the bodies of
-//! [`Case::bodies`] are stepped together by [`Coupled`] (options from
+//! [`Case::bodies`] are stepped together by [`Coupled`](crate::coupling::Coupled) (options from
 //! [`Case::coupling_params`]); at every output step the time series gains the particle
 //! aggregates and `particles.h5` a frame ([`ParticleHistoryWriter`]). Checkpoints then hold
-//! the particles' states too ([`Coupled::snapshot`]), and a resume continues bitwise
+//! the particles' states too ([`Coupled::snapshot`](crate::coupling::Coupled::snapshot)), and a resume continues bitwise
 //! identically (`particles.h5` is cut back to the checkpoint's step like the time series).
 //!
 //! **Impeller.** With `[impeller]` ([`Case::impeller_setup`]) the impeller is one more body of
@@ -29,10 +29,15 @@
 //! angle, speed, torques and power numbers ([`ImpellerTorques`]). Without particles the run
 //! is single-phase with the impeller alone.
 //!
-//! **Device.** With `run.device = "gpu"` (fluid-only f32 cases) the fluid steps on the device
+//! **Device.** With `run.device = "gpu"` (f32 cases) the fluid steps on the device
 //! ([`crate::device::DeviceFluid`]), set up and restored on the host first; the host's fluid is
 //! its mirror, downloaded at output, checkpoint and snapshot steps and read there by the
-//! same code as a CPU run's, so checkpoints and output are a CPU run's.
+//! same code as a CPU run's, so checkpoints and output are a CPU run's. With particles or an
+//! impeller the coupled step runs there too ([`crate::device::DeviceCoupled`]: fluid, markers
+//! and interior sums on the device, bodies and contacts on the host), set up, resumed or
+//! started from a state pack as a CPU coupled solver and then moved onto the device through
+//! [`crate::device::DeviceCoupled::restore`]; its checkpoints are its
+//! [`crate::device::DeviceCoupled::snapshot`], a CPU run's checkpoint.
 //!
 //! **State packs.** [`state_pack_of`] takes a compact state of a fluid (and its bodies) at an
 //! even step ([`crate::io::state_pack`]), [`write_run_state_pack`] one of a run directory's
@@ -53,7 +58,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::case::{Case, Device, ImpellerSetup, Precision};
-use crate::coupling::{Coupled, CoupledState};
+use crate::coupling::{BodyLoads, CoupledState};
 use crate::drive::{self, particle_statics};
 use crate::interrupt;
 use crate::io::checkpoint::PrecisionMismatch;
@@ -63,7 +68,7 @@ use crate::io::{
     ParticleAggregates, ParticleHistoryWriter, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
-use crate::lbm::{Health, Real};
+use crate::lbm::{Fluid, Health, Real};
 
 mod pack;
 mod solver;
@@ -289,12 +294,16 @@ fn progress_status(t: Option<&ImpellerTorques>, p: Option<&ParticleAggregates>, 
     s
 }
 
-/// The impeller's torques and power numbers from the last step (body `index` of `c`).
-fn impeller_torques<T: Real>(c: &Coupled<T>, index: usize, setup: &ImpellerSetup) -> ImpellerTorques {
-    let loads = c.loads(index);
-    let t = c.bodies()[index].time;
+/// The impeller's torques and power numbers from the last step: its `loads`, its body's time
+/// `t`, the walls' torque from `fluid` (the CPU's coupling or the device's host mirror).
+fn impeller_torques<T: Real>(
+    loads: &BodyLoads,
+    t: f64,
+    fluid: &Fluid<T>,
+    setup: &ImpellerSetup,
+) -> ImpellerTorques {
     let centre = setup.centre;
-    let (_, wall_torque) = c.fluid().wall_momentum_exchange([centre.x, centre.y, centre.z]);
+    let (_, wall_torque) = fluid.wall_momentum_exchange([centre.x, centre.y, centre.z]);
     let fluid = -loads.ibm_torque.z;
     let solids = -loads.contact_torque.z;
     let (po_fluid, po_solids) = (setup.power_number(fluid), setup.power_number(solids));
@@ -468,7 +477,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 let impeller_count = if impeller.is_some() { c.body_marker_count(particles) } else { 0 };
                 (c.marker_count(), impeller_count)
             }
-            Solver::Fluid(_) | Solver::Device { .. } => (0, 0),
+            Solver::Fluid(_) | Solver::Device { .. } | Solver::DeviceCoupled { .. } => (0, 0),
         };
 
         let timeseries_path = out_dir.join(files::TIMESERIES);
@@ -522,7 +531,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let pack_step = pack.map(|_| solver.fluid().time());
         // Restored (or started) on the host, then moved onto the device as it stands.
         if case.run.device == Device::Gpu {
-            solver = solver.onto_device()?;
+            solver = solver.onto_device(case, &inits, impeller.as_ref())?;
         }
         Ok(Self {
             case,
@@ -653,7 +662,7 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                     progress.abandon();
                     return Err(anyhow::anyhow!(
                         "the {} step failed between steps {step} and {}: {e:#}; the output up to step {last_good} is kept",
-                        if matches!(self.solver, Solver::Coupled(_)) { "coupled" } else { "fluid" },
+                        if self.solver.is_coupled() { "coupled" } else { "fluid" },
                         next.min(total)
                     ));
                 }
@@ -686,7 +695,15 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         let box_height = self.case.grid().nz as f64;
         let frame = self.solver.particle_frame(self.particles);
         let torques = match (&self.solver, &self.impeller) {
-            (Solver::Coupled(c), Some(s)) => Some(impeller_torques(c, self.particles, s)),
+            (Solver::Coupled(c), Some(s)) => {
+                let i = self.particles;
+                Some(impeller_torques(c.loads(i), c.bodies()[i].time, c.fluid(), s))
+            }
+            // The loads and bodies are on the host; the fluid is the mirror synced at this step.
+            (Solver::DeviceCoupled { device, .. }, Some(s)) => {
+                let i = self.particles;
+                Some(impeller_torques(device.loads(i), device.bodies()[i].time, self.solver.fluid(), s))
+            }
             _ => None,
         };
         let particles = frame.as_ref().map(|f| ParticleAggregates::of(&f.position, &f.velocity));
@@ -725,8 +742,8 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
     }
 
     /// The checkpoint of the present (even) step, with the bodies' states when coupled.
-    fn write_checkpoint(&self) -> anyhow::Result<()> {
-        match &self.solver {
+    fn write_checkpoint(&mut self) -> anyhow::Result<()> {
+        match &mut self.solver {
             Solver::Fluid(f) => {
                 let state = f.snapshot().context("checkpoint at an odd step")?;
                 write_checkpoint_from(
@@ -739,6 +756,17 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             }
             Solver::Coupled(c) => {
                 let state = c.snapshot().context("checkpoint at an odd step")?;
+                write_checkpoint_from(
+                    &self.checkpoint_path,
+                    &state.fluid,
+                    Some(&state.bodies),
+                    &self.fingerprint,
+                    self.history_from,
+                )
+            }
+            // The device's state in the CPU's layout: the same checkpoint as a CPU run's.
+            Solver::DeviceCoupled { device, .. } => {
+                let state = device.snapshot().context("checkpoint at an odd step")?;
                 write_checkpoint_from(
                     &self.checkpoint_path,
                     &state.fluid,
@@ -782,6 +810,9 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
             precision: T::NAME,
             isa: match &self.solver {
                 Solver::Device { device, .. } => format!("device: {}", device.adapter()),
+                Solver::DeviceCoupled { device, .. } => {
+                    format!("device: {}", device.device_fluid().adapter())
+                }
                 _ => fluid.isa().name().to_string(),
             },
             threads: rayon::current_num_threads(),
@@ -898,6 +929,16 @@ fn restore<T: Real + hdf5::H5Type>(
             // With the force field when the checkpoint has it (outputs at the resumed step
             // need the velocity's half-force term); older checkpoints restore without.
             c.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+        }
+        // A session restores on the host before moving onto the device; restored here, the
+        // state goes up as it is.
+        Solver::DeviceCoupled { device, synced } => {
+            let bodies = checkpoint
+                .bodies
+                .ok_or_else(|| BadResume(format!("{} holds no particle states", path.display())))?;
+            let state = solver::as_f32_state(CoupledState { fluid: checkpoint.state, bodies })?;
+            device.restore(&state).map_err(|e| anyhow::anyhow!("cannot restore the checkpoint: {e}"))?;
+            *synced = false;
         }
     }
     Ok(history_from)

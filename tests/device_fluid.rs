@@ -252,15 +252,20 @@ fn a_device_checkpoint_resumes_on_the_cpu_and_on_the_device() {
 }
 
 #[test]
-fn cases_with_particles_or_f64_are_refused_on_the_device() {
+fn f64_cases_are_refused_on_the_device_with_or_without_particles() {
     let text = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/stirred_tank_particles.toml"),
     )
     .unwrap();
+    // Particles and an impeller in f32 run there now (tests/device_run.rs) ...
     let mut case = Case::parse(&text, "stirred.toml").unwrap();
     case.run.device = slurry::case::Device::Gpu;
+    case.validate_settings().expect("an f32 case with particles and an impeller runs on the device");
+    // ... in f64 they do not, nor does the fluid alone.
+    let mut case = Case::parse(&text.replace("\"f32\"", "\"f64\""), "stirred64.toml").unwrap();
+    case.run.device = slurry::case::Device::Gpu;
     let e = case.validate_settings().unwrap_err().to_string();
-    assert!(e.contains("run.device") && e.contains("fluid only"), "{e}");
+    assert!(e.contains("run.device") && e.contains("f32"), "{e}");
     let mut case = Case::parse(&case_text(100, "cpu").replace("f32", "f64"), "f64.toml").unwrap();
     case.run.device = slurry::case::Device::Gpu;
     let e = case.validate_settings().unwrap_err().to_string();

@@ -134,6 +134,12 @@ pub struct ReproduceArgs {
     /// resumed run needs the same directory or pack.
     #[arg(long, value_name = "RUN", conflicts_with_all = ["all", "bed"])]
     pub start_from: Option<PathBuf>,
+    /// Which processor steps the stirred run: `cpu`, or `gpu` (the device backend through
+    /// Vulkan: the fluid and the immersed boundary on the device, the contacts and the bodies
+    /// on the host; f32 cases, which the paper's are). The bed is settled on the CPU either
+    /// way; a checkpoint of either continues on the other.
+    #[arg(long, value_name = "DEVICE", value_parser = ["cpu", "gpu"], default_value = "cpu")]
+    pub device: String,
 }
 
 /// `slurry reproduce --bed`.
@@ -481,6 +487,7 @@ pub fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
             mach_limit: a.mach_limit,
             until_steady,
             start_from: a.start_from.clone(),
+            gpu: a.device == "gpu",
         };
         let s = pool
             .install(|| crate::reproduce(name, &opts))

@@ -293,6 +293,11 @@ pub struct ReproduceOptions {
     /// `--start-from RUN`: start from the particles of the reproduction of the same case in
     /// this output directory (any scale; [`start`]) instead of the settled bed.
     pub start_from: Option<PathBuf>,
+    /// The stirred run on the device (`--device gpu`: the fluid and the markers there,
+    /// [`slurry::device::DeviceCoupled`]; the case's `[run] device`); the bed is settled on the
+    /// CPU either way. Not part of the run's fingerprint: a checkpoint of either continues on
+    /// the other.
+    pub gpu: bool,
 }
 
 /// Revolutions between two steady tests of `--until-steady`.
@@ -789,6 +794,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     if let Some(l) = opts.mach_limit {
         case.run.mach_limit = l;
     }
+    case.run.device = if opts.gpu { slurry::case::Device::Gpu } else { slurry::case::Device::Cpu };
     case.validate().map_err(|kind| anyhow::anyhow!("the stirred case of {name} is invalid: {kind}"))?;
     let first = manifest::Manifest {
         case: name.to_string(),

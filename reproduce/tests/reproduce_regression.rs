@@ -60,6 +60,7 @@ fn pbt_ld2_reduced_run() {
         mach_limit: None,
         until_steady: None,
         start_from: None,
+        gpu: false,
     };
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;

@@ -153,6 +153,7 @@ fn continue_from_pack(c: &SteadyCase, out: &Path) -> (slurry_reproduce::report::
         mach_limit: Some(MACH_LIMIT),
         until_steady: None,
         start_from: Some(pack.clone()),
+        gpu: false,
     };
     let s = reproduce(c.name, &opts).unwrap_or_else(|e| panic!("{} from {}: {e:#}", c.name, pack.display()));
     let r = s.results;

@@ -193,22 +193,12 @@ impl Case {
                 ));
             }
         }
-        if r.device == Device::Gpu {
-            if !self.particles.is_empty() || !self.random_particles.is_empty() || self.impeller.is_some() {
-                return Err(invalid(
-                    "run.device",
-                    "\"gpu\"",
-                    "\"cpu\" for a case with particles or an impeller: the device runs the fluid only so far \
-                     (\"gpu\" is for fluid-only cases)",
-                ));
-            }
-            if self.fluid.precision != Precision::F32 {
-                return Err(invalid(
-                    "run.device",
-                    "\"gpu\"",
-                    "\"cpu\", or \"gpu\" with fluid.precision = \"f32\": the device stores the populations in f32",
-                ));
-            }
+        if r.device == Device::Gpu && self.fluid.precision != Precision::F32 {
+            return Err(invalid(
+                "run.device",
+                "\"gpu\"",
+                "\"cpu\", or \"gpu\" with fluid.precision = \"f32\": the device stores the populations in f32",
+            ));
         }
         if let Some(&s) = r.snapshots.iter().find(|&&s| s < 1 || s > r.steps) {
             return Err(invalid(

@@ -240,6 +240,12 @@ impl DeviceCoupled {
         &self.fluid
     }
 
+    /// The host mirror of the fluid as of the last [`DeviceCoupled::download`] (or
+    /// [`DeviceCoupled::restore`]): what output reads.
+    pub fn host(&self) -> &Fluid<f32> {
+        &self.host
+    }
+
     /// The device markers.
     pub fn device_markers(&self) -> &DeviceMarkers {
         &self.markers

@@ -93,6 +93,12 @@ pub(super) fn restore_from_pack<T: Real>(solver: &mut Solver<T>, pack: &StatePac
             f.restore(&state).map_err(|e| anyhow::anyhow!("{e}"))
         }
         Solver::Coupled(c) => restore_coupled_from_pack(c, pack),
+        // A session starts from a pack on the host and moves onto the device after.
+        Solver::DeviceCoupled { .. } => {
+            anyhow::bail!(
+                "a device run's state pack is restored on the host before the run moves onto the device"
+            )
+        }
     }
 }
 

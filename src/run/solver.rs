@@ -1,9 +1,10 @@
-//! The solver a run steps ([`Solver`]): the fluid alone, the fluid coupled with bodies, or the
-//! fluid on the device with its host mirror.
+//! The solver a run steps ([`Solver`]): the fluid alone, the fluid coupled with bodies, or
+//! either on the device with its host mirror.
 
-use crate::coupling::Coupled;
-use crate::device::{fluid::DEFAULT_WORKGROUP, Context as DeviceContext, DeviceFluid};
-use crate::drive::particle_frame;
+use crate::case::{Case, ImpellerSetup, ParticleInit};
+use crate::coupling::{Coupled, CoupledState};
+use crate::device::{fluid::DEFAULT_WORKGROUP, Context as DeviceContext, DeviceCoupled, DeviceFluid};
+use crate::drive::{self, particle_frame, particle_frame_of};
 use crate::interrupt;
 use crate::io::ParticleFrame;
 use crate::lbm::{Fluid, Real};
@@ -19,12 +20,28 @@ pub(super) enum Solver<T: Real> {
         device: Box<DeviceFluid>,
         synced: bool,
     },
+    /// The fluid, the markers and the interior sums stepped by the device, the bodies and
+    /// their contacts on the host ([`DeviceCoupled`]); the fluid's host mirror
+    /// ([`DeviceCoupled::host`]) is up to date when `synced` ([`Solver::sync`] at output
+    /// steps). Per step only the bodies' states go up and their loads come down.
+    DeviceCoupled {
+        device: Box<DeviceCoupled>,
+        synced: bool,
+    },
 }
 
 /// The f32 fluid that a device run holds (case validation admits `run.device = "gpu"` only
 /// with `fluid.precision = "f32"`).
 fn as_f32<T: Real>(f: &mut Fluid<T>) -> anyhow::Result<&mut Fluid<f32>> {
     (f as &mut dyn std::any::Any).downcast_mut::<Fluid<f32>>().ok_or_else(|| {
+        anyhow::anyhow!("the device stores the populations in f32: set fluid.precision = \"f32\"")
+    })
+}
+
+/// A coupled state of a device run's precision (f32, as [`as_f32`]).
+pub(super) fn as_f32_state<T: Real>(s: CoupledState<T>) -> anyhow::Result<CoupledState<f32>> {
+    let b: Box<dyn std::any::Any> = Box::new(s);
+    b.downcast::<CoupledState<f32>>().map(|s| *s).map_err(|_| {
         anyhow::anyhow!("the device stores the populations in f32: set fluid.precision = \"f32\"")
     })
 }
@@ -36,13 +53,23 @@ impl<T: Real> Solver<T> {
             Solver::Fluid(f) => f,
             Solver::Coupled(c) => c.fluid(),
             Solver::Device { host, .. } => host,
+            // A device run is f32 (`onto_device`), so the downcast holds.
+            Solver::DeviceCoupled { device, .. } => (device.host() as &dyn std::any::Any)
+                .downcast_ref::<Fluid<T>>()
+                .expect("a device run's fluid is f32"),
         }
+    }
+
+    /// Whether bodies are coupled to the fluid (on the CPU or on the device).
+    pub(super) fn is_coupled(&self) -> bool {
+        matches!(self, Solver::Coupled(_) | Solver::DeviceCoupled { .. })
     }
 
     /// Steps completed.
     pub(super) fn time(&self) -> u64 {
         match self {
             Solver::Device { device, .. } => device.time(),
+            Solver::DeviceCoupled { device, .. } => device.device_fluid().time(),
             _ => self.fluid().time(),
         }
     }
@@ -58,11 +85,16 @@ impl<T: Real> Solver<T> {
                 *synced = false;
                 Ok(device.run(n)?)
             }
+            Solver::DeviceCoupled { device, synced } => {
+                *synced = false;
+                Ok(device.run(n)?)
+            }
         }
     }
 
     /// Advances up to `block` steps: a step at a time on the CPU, in batches of 64 on the
-    /// device (each a wait for the device); returns early, at an even step, when a stop is
+    /// device's fluid (each a wait for the device; the coupled device step waits for its loads
+    /// every step, so it goes a step at a time as on the CPU); returns early, at an even step, when a stop is
     /// requested. Returns the steps done.
     pub(super) fn advance(&mut self, block: u64) -> anyhow::Result<u64> {
         let batch = if matches!(self, Solver::Device { .. }) { 64 } else { 1 };
@@ -87,25 +119,63 @@ impl<T: Real> Solver<T> {
                 *synced = true;
             }
         }
+        if let Solver::DeviceCoupled { device, synced } = self {
+            if !*synced {
+                device.download()?;
+                *synced = true;
+            }
+        }
         Ok(())
     }
 
-    /// The fluid moved onto the device (`run.device = "gpu"`), from its present state.
-    pub(super) fn onto_device(self) -> anyhow::Result<Self> {
-        let Solver::Fluid(mut host) = self else {
-            anyhow::bail!(
-                "the device runs the fluid only so far: run a case with particles or an impeller on the CPU"
-            );
-        };
-        let ctx = DeviceContext::new()?;
-        let device = DeviceFluid::new(&ctx, as_f32(&mut host)?, DEFAULT_WORKGROUP)?;
-        Ok(Solver::Device { host, device: Box::new(device), synced: true })
+    /// The solver moved onto the device (`run.device = "gpu"`), from its present state: the
+    /// fluid alone into a [`DeviceFluid`]; the coupled solver (at an even step) into a
+    /// [`DeviceCoupled`] of the same case (`case`, its particles `inits` and `impeller`),
+    /// which restores the CPU solver's state ([`DeviceCoupled::restore`]).
+    pub(super) fn onto_device(
+        self,
+        case: &Case,
+        inits: &[ParticleInit],
+        impeller: Option<&ImpellerSetup>,
+    ) -> anyhow::Result<Self> {
+        match self {
+            Solver::Fluid(mut host) => {
+                let ctx = DeviceContext::new()?;
+                let device = DeviceFluid::new(&ctx, as_f32(&mut host)?, DEFAULT_WORKGROUP)?;
+                Ok(Solver::Device { host, device: Box::new(device), synced: true })
+            }
+            Solver::Coupled(c) => {
+                let state = as_f32_state(c.snapshot().map_err(|e| anyhow::anyhow!("onto the device: {e}"))?)?;
+                drop(c);
+                let mut bodies: Vec<_> = inits.iter().map(|p| p.body()).collect();
+                bodies.extend(impeller.map(ImpellerSetup::body));
+                let ctx = DeviceContext::new()?;
+                let mut device = DeviceCoupled::new(
+                    &ctx,
+                    drive::fluid::<f32>(case)?,
+                    bodies,
+                    case.coupling_params(),
+                    DEFAULT_WORKGROUP,
+                )
+                .map_err(|e| {
+                    anyhow::anyhow!("cannot couple the particles and the impeller on the device: {e}")
+                })?;
+                device.restore(&state)?;
+                Ok(Solver::DeviceCoupled { device: Box::new(device), synced: false })
+            }
+            Solver::Device { .. } | Solver::DeviceCoupled { .. } => Ok(self),
+        }
     }
 
     /// The state of the first `n` bodies (the particles) now, with the hydrodynamic loads of
     /// the last step; `None` without particles.
     pub(super) fn particle_frame(&self, n: usize) -> Option<ParticleFrame> {
-        let Solver::Coupled(c) = self else { return None };
-        (n > 0).then(|| particle_frame(c, n))
+        match self {
+            Solver::Coupled(c) => (n > 0).then(|| particle_frame(c, n)),
+            Solver::DeviceCoupled { device, .. } => {
+                (n > 0).then(|| particle_frame_of(self.time(), &device.bodies()[..n], |b| device.loads(b)))
+            }
+            _ => None,
+        }
     }
 }
