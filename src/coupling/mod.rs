@@ -720,31 +720,7 @@ impl<T: Real> Coupled<T> {
             self.fluid.enable_force_field();
             self.fluid.clear_force_field();
         }
-        for (((b, c), l), st) in self
-            .bodies
-            .iter_mut()
-            .zip(self.velocity_change.iter_mut())
-            .zip(self.loads.iter_mut())
-            .zip(&s.bodies)
-        {
-            *l = BodyLoads {
-                contact_force: st.contact.0,
-                contact_torque: st.contact.1,
-                ..BodyLoads::default()
-            };
-            // The quaternion as stored, bit for bit: it was a unit quaternion when written, and
-            // normalising it again can move its last bits (and a resumed run off the
-            // uninterrupted one).
-            let [w, x, y, z] = st.orientation;
-            *b = b
-                .clone()
-                .with_time(st.time)
-                .with_position(st.position)
-                .with_orientation(Quat::new_unchecked(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
-                .with_velocities(st.velocity, st.angular_velocity);
-            b.reset_load_history();
-            *c = st.velocity_change;
-        }
+        restore_bodies(&mut self.bodies, &mut self.velocity_change, &mut self.loads, &s.bodies);
         // The previous band := the whole grid, so that the next step clears all of it.
         self.band_prev.set_whole_grid();
         Ok(())
@@ -914,3 +890,31 @@ fn shared_sets(sets: impl Iterator<Item = Vec<Marker>>) -> Vec<Arc<[Marker]>> {
 
 #[cfg(test)]
 mod tests;
+
+/// Restores the bodies, their last velocity changes and their loads (the contact part; the
+/// rest is recomputed by the next step) from a snapshot's `states`: what [`Coupled::restore`]
+/// and the device's coupled step share.
+pub(crate) fn restore_bodies(
+    bodies: &mut [RigidBody],
+    velocity_change: &mut [(Vec3, Vec3)],
+    loads: &mut [BodyLoads],
+    states: &[BodyState],
+) {
+    for (((b, c), l), st) in
+        bodies.iter_mut().zip(velocity_change.iter_mut()).zip(loads.iter_mut()).zip(states)
+    {
+        *l = BodyLoads { contact_force: st.contact.0, contact_torque: st.contact.1, ..BodyLoads::default() };
+        // The quaternion as stored, bit for bit: it was a unit quaternion when written, and
+        // normalising it again can move its last bits (and a resumed run off the
+        // uninterrupted one).
+        let [w, x, y, z] = st.orientation;
+        *b = b
+            .clone()
+            .with_time(st.time)
+            .with_position(st.position)
+            .with_orientation(Quat::new_unchecked(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
+            .with_velocities(st.velocity, st.angular_velocity);
+        b.reset_load_history();
+        *c = st.velocity_change;
+    }
+}

@@ -21,9 +21,11 @@
 use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
 use crate::contact::{step_bodies, Contacts, Walls};
-use crate::coupling::{shell_implicit, shell_inertia, BodyLoads, BodyState, CoupledState, CouplingParams};
+use crate::coupling::{
+    restore_bodies, shell_implicit, shell_inertia, BodyLoads, BodyState, CoupledState, CouplingParams,
+};
 use crate::lbm::Fluid;
-use crate::rigid::{LoadScheme, Marker, Quat, RigidBody, Vec3};
+use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
 
 /// The coupled step of fixed and prescribed bodies with the fluid and the markers on the
 /// device (module docs).
@@ -318,29 +320,7 @@ impl DeviceCoupled {
         }
         self.fluid.upload(&self.host)?;
         self.markers.reset();
-        for (((b, c), l), st) in self
-            .bodies
-            .iter_mut()
-            .zip(self.velocity_change.iter_mut())
-            .zip(self.loads.iter_mut())
-            .zip(&s.bodies)
-        {
-            *l = BodyLoads {
-                contact_force: st.contact.0,
-                contact_torque: st.contact.1,
-                ..BodyLoads::default()
-            };
-            // The quaternion as stored, bit for bit (as `Coupled::restore`).
-            let [w, x, y, z] = st.orientation;
-            *b = b
-                .clone()
-                .with_time(st.time)
-                .with_position(st.position)
-                .with_orientation(Quat::new_unchecked(crate::rigid::nalgebra::Quaternion::new(w, x, y, z)))
-                .with_velocities(st.velocity, st.angular_velocity);
-            b.reset_load_history();
-            *c = st.velocity_change;
-        }
+        restore_bodies(&mut self.bodies, &mut self.velocity_change, &mut self.loads, &s.bodies);
         Ok(())
     }
 }
