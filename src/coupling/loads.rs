@@ -5,8 +5,8 @@
 
 use rayon::prelude::*;
 
-use super::{BodyLoads, Coupled};
-use crate::contact::step_bodies;
+use super::{BodyLoads, Coupled, InteriorMomentum};
+use crate::contact::{step_bodies, Contacts};
 use crate::lbm::Real;
 use crate::rigid::{Marker, RigidBody, Vec3};
 
@@ -27,11 +27,7 @@ impl<T: Real> Coupled<T> {
                 f -= fm;
                 t -= r.cross(&fm);
             }
-            let im = &interior[b];
-            let (u, w) = (body.velocity, body.angular_velocity);
-            let inertia_fluid = body.inertia_world() / body.density();
-            let interior_force = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
-            let interior_torque = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
+            let (interior_force, interior_torque) = interior_loads(body, &interior[b]);
             *loads = BodyLoads { ibm_force: f, ibm_torque: t, interior_force, interior_torque, ..*loads };
         });
     }
@@ -41,43 +37,18 @@ impl<T: Real> Coupled<T> {
     /// contacts when there are any; the averaged contact loads and each free body's velocity
     /// change are recorded.
     pub(super) fn advance_bodies(&mut self) {
-        let g = self.gravity;
-        for (s, b) in self.start.iter_mut().zip(&self.bodies) {
-            *s = (b.velocity, b.angular_velocity);
-        }
-        // `change` holds the last step's velocity change until the bodies have moved.
-        let (loads, shell, last) = (&self.loads, &self.shell, &self.velocity_change);
-        let substeps = self.contacts.as_ref().map_or(1, |c| c.params().substeps);
-        let averaged = step_bodies(
+        advance_bodies(
             self.contacts.as_mut(),
             &mut self.bodies,
             &self.contact_markers,
-            substeps,
-            |b: usize, body: &RigidBody| {
-                let l = &loads[b];
-                shell_implicit(
-                    body,
-                    &shell[b],
-                    &last[b],
-                    (l.contact_force, l.contact_torque),
-                    l.force() + body.net_weight(g, 1.0),
-                    l.torque(),
-                )
+            BodyUpdate {
+                loads: &mut self.loads,
+                shell: &self.shell,
+                velocity_change: &mut self.velocity_change,
+                start: &mut self.start,
             },
+            self.gravity,
         );
-        if let Some(avg) = averaged {
-            for (l, a) in self.loads.iter_mut().zip(avg) {
-                l.contact_force = a.force;
-                l.contact_torque = a.torque;
-            }
-        }
-        for ((c, s), b) in self.velocity_change.iter_mut().zip(&self.start).zip(&self.bodies) {
-            *c = if b.is_free() {
-                (b.velocity - s.0, b.angular_velocity - s.1)
-            } else {
-                (Vec3::zeros(), Vec3::zeros())
-            };
-        }
     }
 }
 
@@ -122,4 +93,71 @@ pub(crate) fn shell_implicit(
         tb[k] - kr[k] * (dw - dwb[k])
     });
     (f, body.vector_to_world(&tb))
+}
+
+/// The interior-fluid loads of a body from its sums before and after the fluid step (module
+/// [`super`]): `P⁺ − P⁻ + ω × u V` and `L⁺ − L⁻ + ω × (I_f ω)`, `I_f` the body's inertia at the
+/// fluid's density.
+pub(crate) fn interior_loads(body: &RigidBody, im: &InteriorMomentum) -> (Vec3, Vec3) {
+    let (u, w) = (body.velocity, body.angular_velocity);
+    let inertia_fluid = body.inertia_world() / body.density();
+    let force = im.after.0 - im.before.0 + w.cross(&u) * im.after.2;
+    let torque = im.after.1 - im.before.1 + w.cross(&(inertia_fluid * w));
+    (force, torque)
+}
+
+/// The per-body arrays that phase 8 reads and writes besides the bodies.
+pub(crate) struct BodyUpdate<'a> {
+    /// The loads: the hydrodynamic part is read, the averaged contact part written.
+    pub loads: &'a mut [BodyLoads],
+    /// Each body's forcing shell, [`shell_inertia`].
+    pub shell: &'a [(f64, Vec3)],
+    /// The last step's velocity change on entry, this step's on return.
+    pub velocity_change: &'a mut [(Vec3, Vec3)],
+    /// Scratch: the velocities at the step's start.
+    pub start: &'a mut [(Vec3, Vec3)],
+}
+
+/// Phase 8 (module [`super`]): free bodies get their hydrodynamic loads (with the implicit
+/// shell reaction) and net weight under `gravity`; then [`step_bodies`] advances every body
+/// over the step, sub-cycled with the contacts when there are any; the averaged contact loads
+/// and each free body's velocity change are recorded. The one body update of the coupled step,
+/// on the CPU and on the device.
+pub(crate) fn advance_bodies<M: AsRef<[Marker]> + Sync>(
+    contacts: Option<&mut Contacts>,
+    bodies: &mut [RigidBody],
+    contact_markers: &[M],
+    u: BodyUpdate<'_>,
+    gravity: Vec3,
+) {
+    for (s, b) in u.start.iter_mut().zip(bodies.iter()) {
+        *s = (b.velocity, b.angular_velocity);
+    }
+    // `velocity_change` holds the last step's velocity change until the bodies have moved.
+    let substeps = contacts.as_ref().map_or(1, |c| c.params().substeps);
+    let (loads, shell, last) = (&*u.loads, u.shell, &*u.velocity_change);
+    let averaged = step_bodies(contacts, bodies, contact_markers, substeps, |b: usize, body: &RigidBody| {
+        let l = &loads[b];
+        shell_implicit(
+            body,
+            &shell[b],
+            &last[b],
+            (l.contact_force, l.contact_torque),
+            l.force() + body.net_weight(gravity, 1.0),
+            l.torque(),
+        )
+    });
+    if let Some(avg) = averaged {
+        for (l, a) in u.loads.iter_mut().zip(avg) {
+            l.contact_force = a.force;
+            l.contact_torque = a.torque;
+        }
+    }
+    for ((c, s), b) in u.velocity_change.iter_mut().zip(u.start.iter()).zip(bodies.iter()) {
+        *c = if b.is_free() {
+            (b.velocity - s.0, b.angular_velocity - s.1)
+        } else {
+            (Vec3::zeros(), Vec3::zeros())
+        };
+    }
 }

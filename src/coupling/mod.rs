@@ -185,7 +185,7 @@ use band::{band_runs, run_nodes, Band};
 use interior::{InteriorNodes, Moment};
 // The forcing shell's inertia and its implicit reaction are also the device's coupled step's,
 // which advances its bodies on the host as this module does.
-pub(crate) use loads::{shell_implicit, shell_inertia};
+pub(crate) use loads::{advance_bodies, interior_loads, shell_inertia, BodyUpdate};
 use moments::Moments;
 
 /// Options of the coupling.

@@ -20,9 +20,10 @@
 //! a fixed body's loads lack the interior term (zero in a steady flow), which the CPU reports.
 use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
-use crate::contact::{step_bodies, Contacts, Walls};
+use crate::contact::{Contacts, Walls};
 use crate::coupling::{
-    restore_bodies, shell_implicit, shell_inertia, BodyLoads, BodyState, CoupledState, CouplingParams,
+    advance_bodies, interior_loads, restore_bodies, shell_inertia, BodyLoads, BodyState, BodyUpdate,
+    CoupledState, CouplingParams, InteriorMomentum,
 };
 use crate::lbm::Fluid;
 use crate::rigid::{LoadScheme, Marker, RigidBody, Vec3};
@@ -44,6 +45,8 @@ pub struct DeviceCoupled {
     shell: Vec<(f64, Vec3)>,
     /// Per body, its velocity change in the last step (free bodies; zero otherwise).
     velocity_change: Vec<(Vec3, Vec3)>,
+    /// Scratch for the body update: the velocities at the step's start.
+    start: Vec<(Vec3, Vec3)>,
     /// The contacts (on the host), with each body's contact markers on its true surface.
     contacts: Option<Contacts>,
     contact_markers: Vec<Vec<Marker>>,
@@ -127,6 +130,7 @@ impl DeviceCoupled {
             interior,
             loads: vec![BodyLoads::default(); n],
             velocity_change: vec![(Vec3::zeros(), Vec3::zeros()); n],
+            start: vec![(Vec3::zeros(), Vec3::zeros()); n],
             contacts,
             contact_markers,
         })
@@ -156,51 +160,28 @@ impl DeviceCoupled {
         };
         // Phase 7's loads, as `coupling::loads::collect_loads` composes them.
         for (b, (body, (f, t))) in self.bodies.iter().zip(ibm).enumerate() {
-            let (mut interior_force, mut interior_torque) = (Vec3::zeros(), Vec3::zeros());
-            if let Some(s) = &sums {
-                let [before, after] = s[b];
-                let (u, w) = (body.velocity, body.angular_velocity);
-                let inertia_fluid = body.inertia_world() / body.density();
-                interior_force = after.0 - before.0 + w.cross(&u) * after.2;
-                interior_torque = after.1 - before.1 + w.cross(&(inertia_fluid * w));
-            }
+            let (interior_force, interior_torque) = match &sums {
+                Some(s) => {
+                    let [before, after] = s[b];
+                    interior_loads(body, &InteriorMomentum { before, after })
+                }
+                None => (Vec3::zeros(), Vec3::zeros()),
+            };
             self.loads[b] =
                 BodyLoads { ibm_force: f, ibm_torque: t, interior_force, interior_torque, ..self.loads[b] };
         }
-        // Phase 8, as `coupling::loads::advance_bodies`.
-        let start: Vec<(Vec3, Vec3)> = self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)).collect();
-        let (loads, shell, last, g) = (&self.loads, &self.shell, &self.velocity_change, self.gravity);
-        let substeps = self.contacts.as_ref().map_or(1, |c| c.params().substeps);
-        let averaged = step_bodies(
+        advance_bodies(
             self.contacts.as_mut(),
             &mut self.bodies,
             &self.contact_markers,
-            substeps,
-            |b: usize, body: &RigidBody| {
-                let l = &loads[b];
-                shell_implicit(
-                    body,
-                    &shell[b],
-                    &last[b],
-                    (l.contact_force, l.contact_torque),
-                    l.force() + body.net_weight(g, 1.0),
-                    l.torque(),
-                )
+            BodyUpdate {
+                loads: &mut self.loads,
+                shell: &self.shell,
+                velocity_change: &mut self.velocity_change,
+                start: &mut self.start,
             },
+            self.gravity,
         );
-        if let Some(avg) = averaged {
-            for (l, a) in self.loads.iter_mut().zip(avg) {
-                l.contact_force = a.force;
-                l.contact_torque = a.torque;
-            }
-        }
-        for ((c, s), b) in self.velocity_change.iter_mut().zip(&start).zip(&self.bodies) {
-            *c = if b.is_free() {
-                (b.velocity - s.0, b.angular_velocity - s.1)
-            } else {
-                (Vec3::zeros(), Vec3::zeros())
-            };
-        }
         Ok(())
     }
 
