@@ -840,7 +840,10 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
             .into());
         }
     }
-    let session = this_session(&run_dir, opts.resume);
+    let session = manifest::Session {
+        device: if opts.gpu { "gpu" } else { "cpu" }.into(),
+        ..this_session(&run_dir, opts.resume)
+    };
     let mut record_file = manifest::Manifest::start(&opts.out, first, opts.resume, session)?;
     let mut so_far: Option<RunSummary> = None;
     let (run, sched, case) = loop {

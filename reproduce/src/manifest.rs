@@ -47,6 +47,15 @@ pub struct Session {
     /// The checkpoint step a resumed session continued from, recorded when the session starts
     /// (manifests written by older versions have it only for sessions that finished).
     pub resumed_from_step: Option<u64>,
+    /// The processor that stepped the stirred run: `"cpu"`, or `"gpu"` (`--device gpu`, the
+    /// device backend; the report names the adapter). Manifests written before the device
+    /// backend have no such field and read as `"cpu"`.
+    #[serde(default = "cpu")]
+    pub device: String,
+}
+
+fn cpu() -> String {
+    "cpu".into()
 }
 
 /// The manifest (module docs).
@@ -164,7 +173,8 @@ impl Manifest {
     }
 }
 
-/// This session as it starts: the command line, the revision, the host, `threads`.
+/// This session as it starts: the command line, the revision, the host, `threads`, on the CPU
+/// (set [`Session::device`] for a run on the device).
 pub fn this_session(threads: usize) -> Session {
     Session {
         command: std::env::args().collect(),
@@ -175,6 +185,7 @@ pub fn this_session(threads: usize) -> Session {
         ended: None,
         wall_time_s: None,
         resumed_from_step: None,
+        device: cpu(),
     }
 }
 

@@ -30,6 +30,7 @@ use crate::stats::{self, Stats, StatsOptions, Tank};
 use slurry::case::Case;
 use slurry::io::atomic_write_bytes;
 use slurry::plot::{self, FieldImage, FieldSize, LegendPosition, LinePlot, Series, SeriesStyle};
+use slurry::run::RunSummary;
 
 /// `reproduce/<case>/paper.toml`: the paper's values for a case, with acceptance bands.
 #[derive(Clone, Debug, Deserialize)]
@@ -833,14 +834,14 @@ fn report_md(
     let _ = writeln!(m, "{start}");
     let _ = writeln!(
         m,
-        "- Run: {} steps = ramp of {} steps + {} revolutions; {:.0} s of stepping at {:.1} MLUPS on {} threads; \
+        "- Run: {} steps = ramp of {} steps + {} revolutions; {:.0} s of stepping at {:.1} MLUPS on {}; \
          largest Mach number {:.3}; relative mass change {:.1e}.",
         s.run.steps,
         s.schedule.ramp_steps,
         s.revolutions,
         s.run.step_time_s,
         s.run.mlups,
-        s.run.threads,
+        processor(&s.run),
         s.run.max_mach,
         s.run.relative_mass_change
     );
@@ -936,4 +937,16 @@ fn report_md(
          `reproduce.json`: the run's summary and these results\n"
     );
     m
+}
+
+/// Where the run stepped, for the report: `N threads` on the CPU; on the device, the adapter
+/// (the fluid and the markers there, the contacts and the bodies on N host threads).
+fn processor(run: &RunSummary) -> String {
+    match run.isa.strip_prefix("device: ") {
+        Some(adapter) => format!(
+            "the device {adapter} (the fluid and the immersed boundary; the contacts and the bodies on {} host threads)",
+            run.threads
+        ),
+        None => format!("{} threads", run.threads),
+    }
 }
