@@ -113,7 +113,8 @@ pub struct RunArgs {
     #[arg(long, value_name = "PACK", conflicts_with = "resume")]
     pub from_pack: Option<PathBuf>,
     /// Which processor steps the fluid, overriding the case's `[run] device`: `cpu`, or `gpu`
-    /// (the device backend through Vulkan; f32 cases, with or without particles and impeller).
+    /// (the device backend through Vulkan; f32 cases, with or without particles and impeller,
+    /// and fluid-only f64 cases where the adapter has 64-bit float shaders).
     #[arg(long, value_name = "DEVICE", value_parser = ["cpu", "gpu"])]
     pub device: Option<String>,
     /// How the run starts, threads, progress.

@@ -16,10 +16,10 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use slurry::case::Case;
-use slurry::device::{fluid::DEFAULT_WORKGROUP, Context, DeviceFluid};
+use slurry::device::{fluid::DeviceReal, fluid::DEFAULT_WORKGROUP, Context, DeviceFluid};
 use slurry::io::read_checkpoint;
 use slurry::lattice::{Face, Grid};
-use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams};
+use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams, Real};
 use slurry::run::{run_case, RunOptions};
 
 /// The largest difference allowed between a population on the device and on the CPU after
@@ -31,6 +31,9 @@ use slurry::run::{run_case, RunOptions};
 /// most populations differing by an ulp or two.
 const BOUND: f64 = 2e-6;
 
+/// [`BOUND`]'s argument in f64 storage (an ulp 2^29 times smaller): 2e-6 · 2^-29 ≈ 3.7e-15.
+const BOUND_F64: f64 = 3.7e-15;
+
 fn ctx() -> &'static Context {
     static CTX: OnceLock<Context> = OnceLock::new();
     CTX.get_or_init(|| match Context::new() {
@@ -41,7 +44,7 @@ fn ctx() -> &'static Context {
 
 /// The largest difference between the two fluids' shifted populations over all interior
 /// nodes and directions, and how many differ at all.
-fn difference(a: &Fluid<f32>, b: &Fluid<f32>) -> (f64, usize) {
+fn difference<T: DeviceReal>(a: &Fluid<T>, b: &Fluid<T>) -> (f64, usize) {
     assert_eq!(a.time(), b.time());
     let (pa, pb) = (a.populations_all(), b.populations_all());
     let mut max = 0.0f64;
@@ -56,7 +59,7 @@ fn difference(a: &Fluid<f32>, b: &Fluid<f32>) -> (f64, usize) {
 }
 
 /// A smooth, nonuniform start: density and velocity varying along all three axes.
-fn start(f: &mut Fluid<f32>) {
+fn start<T: Real>(f: &mut Fluid<T>) {
     f.initialize(|x, y, z| {
         let s = ((x * 7 + y * 3 + z * 5) as f64 * 0.13).sin();
         let c = ((x + 2 * y + 3 * z) as f64 * 0.21).cos();
@@ -65,7 +68,7 @@ fn start(f: &mut Fluid<f32>) {
 }
 
 /// A force field that varies from node to node.
-fn force_field(f: &mut Fluid<f32>) {
+fn force_field<T: Real>(f: &mut Fluid<T>) {
     f.enable_force_field();
     let g = f.grid();
     for z in 0..g.nz {
@@ -80,7 +83,7 @@ fn force_field(f: &mut Fluid<f32>) {
 
 /// Runs `cpu` and a device copy of it `steps` steps, downloads, and returns the device's
 /// host mirror (a copy of `cpu` made before stepping).
-fn on_both(cpu: &mut Fluid<f32>, steps: u64, make: impl Fn() -> Fluid<f32>) -> Fluid<f32> {
+fn on_both<T: DeviceReal>(cpu: &mut Fluid<T>, steps: u64, make: impl Fn() -> Fluid<T>) -> Fluid<T> {
     let mut host = make();
     let mut dev = DeviceFluid::new(ctx(), &host, DEFAULT_WORKGROUP).expect("device fluid");
     dev.run(steps).expect("device steps");
@@ -89,17 +92,27 @@ fn on_both(cpu: &mut Fluid<f32>, steps: u64, make: impl Fn() -> Fluid<f32>) -> F
     host
 }
 
-/// Compares and reports; fails beyond [`BOUND`].
-fn check(what: &str, cpu: &Fluid<f32>, dev: &Fluid<f32>) {
-    let (max, n) = difference(cpu, dev);
-    println!("{what}: {n} of {} populations differ, max |diff| = {max:.3e}", cpu.grid().nodes() * 19);
-    assert!(max <= BOUND, "{what}: device and CPU differ by {max:.3e} > {BOUND:e} ({n} populations differ)");
+/// The bound for storage precision `T`: [`BOUND`], or for f64 [`BOUND_F64`].
+fn bound<T: DeviceReal>() -> f64 {
+    if T::WGSL == "f64" {
+        BOUND_F64
+    } else {
+        BOUND
+    }
 }
 
-fn periodic_forced(trt: bool) -> Fluid<f32> {
+/// Compares and reports; fails beyond [`bound`].
+fn check<T: DeviceReal>(what: &str, cpu: &Fluid<T>, dev: &Fluid<T>) {
+    let (max, n) = difference(cpu, dev);
+    let bound = bound::<T>();
+    println!("{what}: {n} of {} populations differ, max |diff| = {max:.3e}", cpu.grid().nodes() * 19);
+    assert!(max <= bound, "{what}: device and CPU differ by {max:.3e} > {bound:e} ({n} populations differ)");
+}
+
+fn periodic_forced<T: Real>(trt: bool) -> Fluid<T> {
     let g = Grid::new(24, 20, 18);
     let p = if trt { FluidParams::trt(0.04) } else { FluidParams::bgk(0.04) };
-    let mut f = Fluid::<f32>::new(g, p.with_body_force([2e-5, -1e-5, 3e-6]), Boundaries::periodic()).unwrap();
+    let mut f = Fluid::<T>::new(g, p.with_body_force([2e-5, -1e-5, 3e-6]), Boundaries::periodic()).unwrap();
     start(&mut f);
     force_field(&mut f);
     f
@@ -107,7 +120,7 @@ fn periodic_forced(trt: bool) -> Fluid<f32> {
 
 #[test]
 fn periodic_box_with_body_force_and_force_field_bgk() {
-    let make = || periodic_forced(false);
+    let make = || periodic_forced::<f32>(false);
     let mut cpu = make();
     let (_, mass0) = cpu.mass_deviation();
     let dev = on_both(&mut cpu, 200, make);
@@ -121,27 +134,30 @@ fn periodic_box_with_body_force_and_force_field_bgk() {
     assert!((mass1 - mass0).abs() < 2e-5, "device mass changed by {:.3e}", mass1 - mass0);
 }
 
-#[test]
-fn periodic_box_with_body_force_and_force_field_trt() {
-    let make = || periodic_forced(true);
-    let mut cpu = make();
-    let dev = on_both(&mut cpu, 200, make);
-    check("periodic TRT, body force and field, 200 steps", &cpu, &dev);
+fn periodic_trt<T: DeviceReal>() {
+    let make = periodic_forced::<T>;
+    let mut cpu = make(true);
+    let dev = on_both(&mut cpu, 200, || make(true));
+    check(&format!("periodic TRT, body force and field, 200 steps, {}", T::WGSL), &cpu, &dev);
 }
 
 #[test]
-fn closed_box_with_a_moving_lid() {
+fn periodic_box_with_body_force_and_force_field_trt() {
+    periodic_trt::<f32>();
+}
+
+fn closed_box<T: DeviceReal>() {
     let make = || {
         let g = Grid::new(23, 19, 17);
         let b = Boundaries::closed_box()
             .with(Face::ZMax, FaceBoundary::MovingWall { velocity: [0.05, 0.02, 0.0] });
-        let mut f = Fluid::<f32>::new(g, FluidParams::trt(0.05), b).unwrap();
+        let mut f = Fluid::<T>::new(g, FluidParams::trt(0.05), b).unwrap();
         start(&mut f);
         f
     };
     let mut cpu = make();
     let dev = on_both(&mut cpu, 150, make);
-    check("closed box, moving lid, TRT, 150 steps", &cpu, &dev);
+    check(&format!("closed box, moving lid, TRT, 150 steps, {}", T::WGSL), &cpu, &dev);
     // Closed box: no population leaves; the walls' terms sum to zero over each wall (ρ_w = 1).
     let (m0, m1) = (make().mass_deviation().1, dev.mass_deviation().1);
     // The bound of the periodic box's mass check (round-off only), for a similar node count.
@@ -149,14 +165,17 @@ fn closed_box_with_a_moving_lid() {
 }
 
 #[test]
-fn solid_block_in_a_driven_channel() {
+fn closed_box_with_a_moving_lid() {
+    closed_box::<f32>();
+}
+
+fn solid_block<T: DeviceReal>() {
     let make = || {
         let g = Grid::new(25, 20, 18);
         let b = Boundaries::periodic()
             .with(Face::YMin, FaceBoundary::NoSlip)
             .with(Face::YMax, FaceBoundary::NoSlip);
-        let mut f =
-            Fluid::<f32>::new(g, FluidParams::bgk(0.03).with_body_force([1e-5, 0.0, 0.0]), b).unwrap();
+        let mut f = Fluid::<T>::new(g, FluidParams::bgk(0.03).with_body_force([1e-5, 0.0, 0.0]), b).unwrap();
         f.set_obstacles(|x, y, z| (8..13).contains(&x) && (5..12).contains(&y) && (4..15).contains(&z))
             .unwrap();
         start(&mut f);
@@ -165,12 +184,43 @@ fn solid_block_in_a_driven_channel() {
     let mut cpu = make();
     let dev = on_both(&mut cpu, 101, make);
     // 101: the comparison at odd time reads the AA layout through the ghost and obstacle slots.
-    check("channel with a solid block, BGK, 101 steps", &cpu, &dev);
+    check(&format!("channel with a solid block, BGK, 101 steps, {}", T::WGSL), &cpu, &dev);
+}
+
+#[test]
+fn solid_block_in_a_driven_channel() {
+    solid_block::<f32>();
+}
+
+/// f64 storage on the device, where the adapter has 64-bit float shaders (lavapipe and
+/// NVIDIA's Vulkan driver do): the same three set-ups against the CPU's `Fluid<f64>`, within
+/// [`BOUND_F64`]; an adapter without them refuses f64 with an error that says so.
+#[test]
+fn f64_storage_on_the_device_as_on_the_cpu() {
+    if !ctx().has_f64() {
+        let f = periodic_forced::<f64>(true);
+        let e = DeviceFluid::new(ctx(), &f, DEFAULT_WORKGROUP).err().expect("refused without f64 shaders");
+        assert!(e.to_string().contains("f64"), "{e}");
+        println!("the adapter has no f64 shaders: refused ({e})");
+        return;
+    }
+    periodic_trt::<f64>();
+    closed_box::<f64>();
+    solid_block::<f64>();
+}
+
+#[test]
+fn an_f64_host_fluid_does_not_fit_an_f32_device_fluid() {
+    let host = periodic_forced::<f32>(true);
+    let dev = DeviceFluid::new(ctx(), &host, DEFAULT_WORKGROUP).unwrap();
+    let mut other = periodic_forced::<f64>(true);
+    let e = dev.download(&mut other).unwrap_err().to_string();
+    assert!(e.contains("f64") && e.contains("f32"), "{e}");
 }
 
 /// The device's populations after `steps` steps with work groups of `wg`.
 fn device_run(wg: u32, steps: u64) -> Vec<f64> {
-    let mut host = periodic_forced(true);
+    let mut host = periodic_forced::<f32>(true);
     let mut dev = DeviceFluid::new(ctx(), &host, wg).expect("device fluid");
     dev.run(steps).unwrap();
     dev.download(&mut host).unwrap();
@@ -191,14 +241,14 @@ fn device_runs_are_bitwise_reproducible_for_any_work_group_size() {
 #[test]
 fn upload_download_round_trip_and_stepping_in_pieces() {
     // 60 steps in pieces (odd ones included) with a download and an upload between them equal 60 at once.
-    let mut a = periodic_forced(false);
+    let mut a = periodic_forced::<f32>(false);
     let mut dev = DeviceFluid::new(ctx(), &a, DEFAULT_WORKGROUP).unwrap();
     for n in [1, 13, 2, 44] {
         dev.run(n).unwrap();
         dev.download(&mut a).unwrap();
         dev.upload(&a).unwrap();
     }
-    let mut b = periodic_forced(false);
+    let mut b = periodic_forced::<f32>(false);
     let mut whole = DeviceFluid::new(ctx(), &b, DEFAULT_WORKGROUP).unwrap();
     whole.run(60).unwrap();
     whole.download(&mut b).unwrap();
@@ -252,22 +302,40 @@ fn a_device_checkpoint_resumes_on_the_cpu_and_on_the_device() {
 }
 
 #[test]
-fn f64_cases_are_refused_on_the_device_with_or_without_particles() {
+fn f64_runs_the_fluid_alone_on_the_device_and_refuses_bodies() {
     let text = std::fs::read_to_string(
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/stirred_tank_particles.toml"),
     )
     .unwrap();
-    // Particles and an impeller in f32 run there now (tests/device_run.rs) ...
+    // Particles and an impeller in f32 run there (tests/device_run.rs) ...
     let mut case = Case::parse(&text, "stirred.toml").unwrap();
     case.run.device = slurry::case::Device::Gpu;
     case.validate_settings().expect("an f32 case with particles and an impeller runs on the device");
-    // ... in f64 they do not, nor does the fluid alone.
+    // ... in f64 they do not: the markers work in f32.
     let mut case = Case::parse(&text.replace("\"f32\"", "\"f64\""), "stirred64.toml").unwrap();
     case.run.device = slurry::case::Device::Gpu;
     let e = case.validate_settings().unwrap_err().to_string();
     assert!(e.contains("run.device") && e.contains("f32"), "{e}");
-    let mut case = Case::parse(&case_text(100, "cpu").replace("f32", "f64"), "f64.toml").unwrap();
-    case.run.device = slurry::case::Device::Gpu;
-    let e = case.validate_settings().unwrap_err().to_string();
-    assert!(e.contains("run.device") && e.contains("f32"), "{e}");
+    // The fluid alone runs in f64 where the adapter has 64-bit float shaders, as on the CPU.
+    let f64_text = |steps: u64, device: &str| case_text(steps, device).replace("\"f32\"", "\"f64\"");
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |dir: &Path, device: &str| {
+        let case = Case::parse(&f64_text(100, device), "f64.toml").expect("valid f64 case");
+        run_case(&case, dir, RunOptions { quiet: true, ..RunOptions::default() })
+    };
+    let (dev, cpu) = (tmp.path().join("dev"), tmp.path().join("cpu"));
+    let got = run(&dev, "gpu");
+    if !ctx().has_f64() {
+        let e = format!("{:#}", got.expect_err("refused without f64 shaders"));
+        assert!(e.contains("f64"), "{e}");
+        return;
+    }
+    got.expect("the f64 fluid on the device");
+    run(&cpu, "cpu").expect("the f64 fluid on the CPU");
+    let read = |d: &Path| read_checkpoint::<f64>(&d.join("checkpoint.h5")).unwrap().state.populations;
+    let (a, b) = (read(&dev), read(&cpu));
+    assert_eq!(a.len(), b.len());
+    let max = a.iter().zip(&b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    println!("f64 run on the device vs the CPU at step 100: max |diff| = {max:.3e}");
+    assert!(max <= BOUND_F64, "f64 device run: {max:.3e} from the CPU's");
 }

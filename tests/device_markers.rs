@@ -281,7 +281,7 @@ fn spreading_matches_the_cpu_with(kernel: DeltaKernel) {
     let t = std::time::Instant::now();
     markers.place(&dev).unwrap();
     markers.spread_forces(&dev, &forces).unwrap();
-    let got = dev.download_force().unwrap();
+    let got = dev.download_force::<f32>().unwrap();
     let seconds = t.elapsed().as_secs_f64();
     let dx = measured_position_error(&markers, &bodies, &pos, &radius);
     let g = host.grid();
@@ -350,7 +350,7 @@ fn forcing_is_deterministic_and_loads_sum_the_markers() {
         markers.force(&dev, 2).unwrap();
         let loads = markers.loads().unwrap();
         let seconds = t.elapsed().as_secs_f64();
-        let field = dev.download_force().unwrap();
+        let field = dev.download_force::<f32>().unwrap();
         let forces = markers.marker_forces().unwrap();
         let arms = markers.marker_arms().unwrap();
         println!("work group {wg}: {} markers, two iterations and loads {seconds:.3} s", markers.len());
@@ -685,7 +685,7 @@ fn device_coupled_step_is_bitwise_the_same_for_any_work_group() {
         let host = dev.download().unwrap();
         let pops: Vec<u64> = host.populations_all().iter().map(|v| v.to_bits()).collect();
         let force: Vec<u32> =
-            dev.device_fluid().download_force().unwrap().iter().map(|v| v.to_bits()).collect();
+            dev.device_fluid().download_force::<f32>().unwrap().iter().map(|v| v.to_bits()).collect();
         runs.push((wg, states, pops, force));
     }
     let (_, s0, p0, f0) = &runs[0];

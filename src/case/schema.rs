@@ -272,9 +272,10 @@ pub struct RunSection {
     /// part of the run's fingerprint: a resume may add some.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub snapshots: Vec<u64>,
-    /// Which processor steps the fluid: `"cpu"` (default) or `"gpu"` (the device backend, f32
-    /// cases only: the fluid, and with particles or an impeller the markers too, on the device;
-    /// `slurry run --device` overrides it). Not part of the
+    /// Which processor steps the fluid: `"cpu"` (default) or `"gpu"` (the device backend: the
+    /// fluid, and with particles or an impeller the markers too, on the device; f32 cases, and
+    /// fluid-only f64 cases where the adapter has 64-bit float shaders; `slurry run --device`
+    /// overrides it). Not part of the
     /// run's fingerprint: a checkpoint of either continues on the other.
     #[serde(default, skip_serializing_if = "Device::is_cpu")]
     pub device: Device,

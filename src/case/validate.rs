@@ -193,11 +193,16 @@ impl Case {
                 ));
             }
         }
-        if r.device == Device::Gpu && self.fluid.precision != Precision::F32 {
+        if r.device == Device::Gpu
+            && self.fluid.precision != Precision::F32
+            && (self.has_particles() || self.impeller.is_some())
+        {
             return Err(invalid(
                 "run.device",
                 "\"gpu\"",
-                "\"cpu\", or \"gpu\" with fluid.precision = \"f32\": the device stores the populations in f32",
+                "\"cpu\", or \"gpu\" with fluid.precision = \"f32\" for a case with particles or an impeller \
+                 (the device's markers work in f32; the fluid alone runs there in f64 too, where the adapter \
+                 has 64-bit float shaders)",
             ));
         }
         if let Some(&s) = r.snapshots.iter().find(|&&s| s < 1 || s > r.steps) {

@@ -1,6 +1,7 @@
 //! [`DeviceFluid`]: the D3Q19 fluid's state and time step on the device.
 //!
-//! **Storage.** The shifted populations in f32, exactly as the CPU's [`Fluid<f32>`] stores them:
+//! **Storage.** The shifted populations in f32 (or in f64 where the adapter has 64-bit float
+//! shaders, [`DeviceReal`]), exactly as the CPU's [`Fluid`] stores them:
 //! the padded grid with its ghost layer and the same `stride`, one buffer per direction (a
 //! binding may hold at most 128 MiB on lavapipe, and per direction the paper's grid needs 62 MB),
 //! so that [`DeviceFluid::upload`] and [`DeviceFluid::download`] copy each direction's array
@@ -33,7 +34,32 @@ use wgpu::util::DeviceExt;
 
 use super::{Context, DeviceError};
 use crate::lattice::{Grid, Q, W};
-use crate::lbm::Fluid;
+use crate::lbm::{Fluid, Real};
+
+/// The storage precisions the device fluid offers: f32 everywhere, f64 where the adapter has
+/// 64-bit float shaders ([`Context::has_f64`]).
+pub trait DeviceReal: Real + bytemuck::Pod {
+    /// The WGSL type (`real` in the kernels is an alias of it).
+    const WGSL: &'static str;
+    /// Appends the value's bits as 32-bit words, low word first (the device's little-endian
+    /// layout of an f64).
+    fn push_words(self, out: &mut Vec<u32>);
+}
+
+impl DeviceReal for f32 {
+    const WGSL: &'static str = "f32";
+    fn push_words(self, out: &mut Vec<u32>) {
+        out.push(self.to_bits());
+    }
+}
+
+impl DeviceReal for f64 {
+    const WGSL: &'static str = "f64";
+    fn push_words(self, out: &mut Vec<u32>) {
+        let b = self.to_bits();
+        out.extend([b as u32, (b >> 32) as u32]);
+    }
+}
 
 /// The default work-group size of the kernels (threads along x).
 pub const DEFAULT_WORKGROUP: u32 = 64;
@@ -65,9 +91,11 @@ pub struct DeviceFluid {
     adapter: String,
     grid: Grid,
     stride: usize,
+    /// The storage precision's WGSL name, `"f32"` or `"f64"` ([`DeviceReal::WGSL`]).
+    precision: &'static str,
     trt: bool,
     workgroup: u32,
-    /// One buffer per direction, `stride` f32 each.
+    /// One buffer per direction, `stride` values each.
     pops: Vec<wgpu::Buffer>,
     /// The force field's three components, while it is on.
     force: Option<[wgpu::Buffer; 3]>,
@@ -88,8 +116,8 @@ pub struct DeviceFluid {
     /// A staging buffer for downloads, one direction long.
     staging: wgpu::Buffer,
     time: u64,
-    /// The uniform body force (as the sweep's parameters hold it).
-    body: [f32; 3],
+    /// The uniform body force (as the sweep's parameters hold it, in the storage precision).
+    body: [f64; 3],
     /// Which axes are periodic (the others are walled).
     periodic: [bool; 3],
     /// Bumped whenever the force field's buffers are made anew (markers bound to the old ones
@@ -126,12 +154,18 @@ impl DeviceFluid {
     /// # Errors
     /// [`DeviceError::Limit`] when a direction's array, the dispatch or the work group exceeds
     /// the adapter's limits; [`DeviceError::Wgpu`] when a kernel does not compile.
-    pub fn new(ctx: &Context, fluid: &Fluid<f32>, workgroup: u32) -> Result<Self, DeviceError> {
+    pub fn new<T: DeviceReal>(ctx: &Context, fluid: &Fluid<T>, workgroup: u32) -> Result<Self, DeviceError> {
         let limits = ctx.limits();
         let adapter = ctx.describe();
+        if T::WGSL == "f64" && !ctx.has_f64() {
+            return Err(DeviceError::Mismatch(format!(
+                "f64 storage on the device needs 64-bit float shaders, which the adapter {adapter} does not \
+                 offer: use f32 storage, or the CPU"
+            )));
+        }
         let grid = fluid.grid();
         let stride = fluid.stride();
-        let bytes = (stride * 4) as u64;
+        let bytes = (stride * size_of::<T>()) as u64;
         within("a direction's array (bytes)", bytes, limits.max_storage_buffer_binding_size, &adapter)?;
         within("a direction's array (bytes)", bytes, limits.max_buffer_size, &adapter)?;
         within("work-group size", workgroup as u64, limits.max_compute_workgroup_size_x as u64, &adapter)?;
@@ -192,23 +226,33 @@ impl DeviceFluid {
 
         // Link list, sorted by directions (threads of a group then mostly take the same branch
         // of the kernel's direction switch; the links are independent, so the order is free).
-        let mut list: Vec<[u32; 4]> = fluid
+        let mut list: Vec<([u32; 3], T)> = fluid
             .raw_links()
             .map(|l| {
                 let (own_q, own_n) = (l.own / stride, l.own % stride);
                 let (ghost_q, ghost_n) = (l.ghost / stride, l.ghost % stride);
                 let dirs = own_q as u32 | (ghost_q as u32) << 8 | (l.periodic as u32) << 16;
-                [own_n as u32, ghost_n as u32, dirs, l.term.to_bits()]
+                ([own_n as u32, ghost_n as u32, dirs], l.term)
             })
             .collect();
-        list.sort_by_key(|l| (l[2], l[0]));
+        list.sort_by_key(|l| (l.0[2], l.0[0]));
         let n_links = list.len() as u32;
         if list.is_empty() {
-            list.push([0; 4]);
+            list.push(([0; 3], T::ZERO));
+        }
+        // common.wgsl's `Link`: three u32, then the term at its alignment (offset 12 in f32,
+        // 16 in f64), each element padded to a multiple of its alignment.
+        let mut words = Vec::with_capacity(list.len() * 6);
+        for (w, term) in &list {
+            words.extend_from_slice(w);
+            if size_of::<T>() == 8 {
+                words.push(0);
+            }
+            term.push_words(&mut words);
         }
         let links = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("links"),
-            contents: bytemuck::cast_slice(&list),
+            contents: bytemuck::cast_slice(&words),
             usage: wgpu::BufferUsages::STORAGE,
         });
         let groups = (n_links as u64).div_ceil(workgroup as u64);
@@ -251,7 +295,7 @@ impl DeviceFluid {
 
         let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let module = |label: &str, kernel: &str| {
-            let source = format!("{COMMON}\n{kernel}");
+            let source = format!("alias real = {};\n{COMMON}\n{kernel}", T::WGSL);
             // SAFETY: the kernels index only in range (module docs: every index is bounded by
             // construction) and contain no loops, which is what the unchecked mode requires.
             unsafe {
@@ -290,6 +334,7 @@ impl DeviceFluid {
             adapter,
             grid,
             stride,
+            precision: T::WGSL,
             trt,
             workgroup,
             pops,
@@ -308,7 +353,7 @@ impl DeviceFluid {
             link_pipes,
             staging,
             time: fluid.time(),
-            body: fluid.raw_body(),
+            body: fluid.raw_body().map(Real::to_f64),
             periodic: std::array::from_fn(|a| {
                 fluid.boundaries().get(crate::lattice::Face::from_axis(a, true)).is_periodic()
             }),
@@ -323,17 +368,17 @@ impl DeviceFluid {
     }
 
     /// The uniform parameters (common.wgsl `Params`) as 32-bit words: sizes, the body force,
-    /// and the collision constants rounded from f64 once, as `collide` rounds them.
-    fn params_words(fluid: &Fluid<f32>, n_links: u32, link_row: u32) -> Vec<u32> {
+    /// and the collision constants rounded from f64 once to the storage precision, as `collide`
+    /// rounds them.
+    fn params_words<T: DeviceReal>(fluid: &Fluid<T>, n_links: u32, link_row: u32) -> Vec<u32> {
         let g = fluid.grid();
         let rates = fluid.raw_rates();
         let trt = fluid.params().is_trt();
-        let op = rates.omega_plus as f64;
-        let om = if trt { rates.omega_minus as f64 } else { op };
-        let sp = rates.src_plus as f64;
-        let sm = if trt { rates.src_minus as f64 } else { sp };
+        let op = rates.omega_plus.to_f64();
+        let om = if trt { rates.omega_minus.to_f64() } else { op };
+        let sp = rates.src_plus.to_f64();
+        let sm = if trt { rates.src_minus.to_f64() } else { sp };
         let (w1, w2) = (W[1], W[7]);
-        let c = |v: f64| (v as f32).to_bits();
         let body = fluid.raw_body();
         let mut words = vec![
             g.nx as u32,
@@ -344,26 +389,30 @@ impl DeviceFluid {
             n_links,
             link_row,
             0,
-            body[0].to_bits(),
-            body[1].to_bits(),
-            body[2].to_bits(),
-            c(op),
-            c(3.0 * sp),
-            c(W[0]),
-            c(w1),
-            c(w2),
-            c(4.5 * op * w1),
-            c(4.5 * op * w2),
-            c(3.0 * om * w1),
-            c(3.0 * om * w2),
-            c(9.0 * sp * w1),
-            c(9.0 * sp * w2),
-            c(3.0 * sm * w1),
-            c(3.0 * sm * w2),
-            c(1.0 - op),
-            c(0.5 * op),
-            c(0.5 * om),
         ];
+        for v in body {
+            v.push_words(&mut words);
+        }
+        for v in [
+            op,
+            3.0 * sp,
+            W[0],
+            w1,
+            w2,
+            4.5 * op * w1,
+            4.5 * op * w2,
+            3.0 * om * w1,
+            3.0 * om * w2,
+            9.0 * sp * w1,
+            9.0 * sp * w2,
+            3.0 * sm * w1,
+            3.0 * sm * w2,
+            1.0 - op,
+            0.5 * op,
+            0.5 * om,
+        ] {
+            T::from_f64(v).push_words(&mut words);
+        }
         words.resize(words.len().next_multiple_of(4), 0);
         words
     }
@@ -468,13 +517,24 @@ impl DeviceFluid {
         &self.adapter
     }
 
-    /// Checks that `fluid` has this device fluid's grid and layout.
-    fn check(&self, fluid: &Fluid<f32>) -> Result<(), DeviceError> {
-        if fluid.grid() != self.grid || fluid.stride() != self.stride || fluid.params().is_trt() != self.trt {
+    /// The storage precision, `"f32"` or `"f64"`.
+    pub fn precision(&self) -> &'static str {
+        self.precision
+    }
+
+    /// Checks that `fluid` has this device fluid's grid, layout and precision.
+    fn check<T: DeviceReal>(&self, fluid: &Fluid<T>) -> Result<(), DeviceError> {
+        if fluid.grid() != self.grid
+            || fluid.stride() != self.stride
+            || fluid.params().is_trt() != self.trt
+            || T::WGSL != self.precision
+        {
             return Err(DeviceError::Mismatch(format!(
-                "the host fluid (grid {:?}) is not the one this device fluid was made from (grid {:?})",
+                "the host fluid (grid {:?}, {}) is not the one this device fluid was made from (grid {:?}, {})",
                 fluid.grid(),
-                self.grid
+                T::WGSL,
+                self.grid,
+                self.precision
             )));
         }
         Ok(())
@@ -485,7 +545,7 @@ impl DeviceFluid {
     ///
     /// # Errors
     /// [`DeviceError::Mismatch`] for a fluid of another grid.
-    pub fn upload(&mut self, fluid: &Fluid<f32>) -> Result<(), DeviceError> {
+    pub fn upload<T: DeviceReal>(&mut self, fluid: &Fluid<T>) -> Result<(), DeviceError> {
         self.check(fluid)?;
         let f = fluid.raw_populations();
         for (q, b) in self.pops.iter().enumerate() {
@@ -502,7 +562,7 @@ impl DeviceFluid {
     /// # Errors
     /// [`DeviceError::Mismatch`] for a fluid of another grid; [`DeviceError::Wgpu`] when the
     /// kernel for a newly enabled field does not compile.
-    pub fn set_force_field(&mut self, fluid: &Fluid<f32>) -> Result<(), DeviceError> {
+    pub fn set_force_field<T: DeviceReal>(&mut self, fluid: &Fluid<T>) -> Result<(), DeviceError> {
         self.check(fluid)?;
         let field = fluid.raw_force();
         let was = self.force.is_some();
@@ -513,7 +573,7 @@ impl DeviceFluid {
                 let make = |a: usize| {
                     self.device.create_buffer(&wgpu::BufferDescriptor {
                         label: Some(["force x", "force y", "force z"][a]),
-                        size: (self.stride * 4) as u64,
+                        size: (self.stride * size_of::<T>()) as u64,
                         usage: wgpu::BufferUsages::STORAGE
                             | wgpu::BufferUsages::COPY_DST
                             | wgpu::BufferUsages::COPY_SRC,
@@ -556,7 +616,7 @@ impl DeviceFluid {
     /// # Errors
     /// [`DeviceError::Mismatch`] for a fluid of another grid; [`DeviceError::Wgpu`] when the
     /// read-back fails.
-    pub fn download(&self, fluid: &mut Fluid<f32>) -> Result<(), DeviceError> {
+    pub fn download<T: DeviceReal>(&self, fluid: &mut Fluid<T>) -> Result<(), DeviceError> {
         self.check(fluid)?;
         let stride = self.stride;
         let f = fluid.raw_populations_mut(self.time);
@@ -572,10 +632,17 @@ impl DeviceFluid {
     ///
     /// # Errors
     /// [`DeviceError::Wgpu`] when the read-back fails.
-    pub fn download_force(&self) -> Result<Vec<f32>, DeviceError> {
+    pub fn download_force<T: DeviceReal>(&self) -> Result<Vec<T>, DeviceError> {
         let Some(bufs) = &self.force else { return Ok(Vec::new()) };
+        if T::WGSL != self.precision {
+            return Err(DeviceError::Mismatch(format!(
+                "the force field is in {}, not {}",
+                self.precision,
+                T::WGSL
+            )));
+        }
         let stride = self.stride;
-        let mut out = vec![0.0f32; 3 * stride];
+        let mut out = vec![T::ZERO; 3 * stride];
         for (a, b) in bufs.iter().enumerate() {
             self.read_back(b, &mut out[a * stride..(a + 1) * stride])?;
         }
@@ -584,8 +651,8 @@ impl DeviceFluid {
 
     /// Copies the first `out.len()` values of `buffer` (at most one direction's array) into
     /// `out` through the staging buffer.
-    fn read_back(&self, buffer: &wgpu::Buffer, out: &mut [f32]) -> Result<(), DeviceError> {
-        let bytes = (out.len() * 4) as u64;
+    fn read_back<T: DeviceReal>(&self, buffer: &wgpu::Buffer, out: &mut [T]) -> Result<(), DeviceError> {
+        let bytes = size_of_val(out) as u64;
         let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
         enc.copy_buffer_to_buffer(buffer, 0, &self.staging, 0, bytes);
         self.queue.submit([enc.finish()]);
@@ -629,9 +696,10 @@ impl DeviceFluid {
         self.force.as_ref().map(|f| (f, self.force_generation))
     }
 
-    /// The uniform body force, in f32.
+    /// The uniform body force, in f32 (exact for an f32 fluid, the only one the markers
+    /// work on).
     pub(super) fn body_force(&self) -> [f32; 3] {
-        self.body
+        self.body.map(|v| v as f32)
     }
 
     /// Distance between the starts of the padded arrays' components (as the host fluid's).
@@ -698,7 +766,10 @@ impl DeviceFluid {
     /// # Errors
     /// As [`DeviceFluid::download`].
     #[allow(clippy::type_complexity)]
-    pub fn fields(&self, fluid: &mut Fluid<f32>) -> Result<(Vec<f64>, Vec<[f64; 3]>), DeviceError> {
+    pub fn fields<T: DeviceReal>(
+        &self,
+        fluid: &mut Fluid<T>,
+    ) -> Result<(Vec<f64>, Vec<[f64; 3]>), DeviceError> {
         self.download(fluid)?;
         Ok(fluid.fields())
     }

@@ -226,7 +226,7 @@ impl DeviceMarkers {
     /// with the delta function `kernel`, run in work groups of `workgroup` threads.
     ///
     /// # Errors
-    /// [`DeviceError::Mismatch`] when the fluid's force field is off or the work-group size is
+    /// [`DeviceError::Mismatch`] when the fluid is not f32, its force field is off or the work-group size is
     /// 0; [`DeviceError::Limit`] beyond the adapter's limits; [`DeviceError::Wgpu`] when a
     /// kernel does not compile.
     pub fn new(
@@ -235,6 +235,12 @@ impl DeviceMarkers {
         kernel: DeltaKernel,
         workgroup: u32,
     ) -> Result<Self, DeviceError> {
+        if fluid.precision() != "f32" {
+            return Err(DeviceError::Mismatch(format!(
+                "the markers work on an f32 device fluid, not {}",
+                fluid.precision()
+            )));
+        }
         let (device, queue) = fluid.device_queue();
         let (device, queue) = (device.clone(), queue.clone());
         let Some((force, force_generation)) = fluid.force_buffers() else {

@@ -110,9 +110,11 @@ impl Context {
             .ok_or(DeviceError::NoAdapter)?;
         let info = adapter.get_info();
         let limits = adapter.limits();
+        // 64-bit float shaders where the adapter has them (f64 storage of the fluid).
+        let features = adapter.features() & wgpu::Features::SHADER_F64;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("slurry"),
-            required_features: wgpu::Features::empty(),
+            required_features: features,
             required_limits: limits.clone(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
@@ -129,6 +131,11 @@ impl Context {
             "{} ({:?}, {:?}, {} {})",
             self.info.name, self.info.device_type, self.info.backend, self.info.driver, self.info.driver_info
         )
+    }
+
+    /// Whether the device runs 64-bit float shaders (the fluid in f64 storage).
+    pub fn has_f64(&self) -> bool {
+        self.device.features().contains(wgpu::Features::SHADER_F64)
     }
 
     /// Whether the adapter is a CPU driver (its timings are then no measure of speed).

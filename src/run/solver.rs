@@ -3,7 +3,8 @@
 
 use crate::case::{Case, ImpellerSetup, ParticleInit};
 use crate::coupling::{Coupled, CoupledState};
-use crate::device::{fluid::DEFAULT_WORKGROUP, Context as DeviceContext, DeviceCoupled, DeviceFluid};
+use crate::device::fluid::DEFAULT_WORKGROUP;
+use crate::device::{Context as DeviceContext, DeviceCoupled, DeviceFluid};
 use crate::drive::{self, particle_frame, particle_frame_of};
 use crate::interrupt;
 use crate::io::ParticleFrame;
@@ -30,15 +31,27 @@ pub(super) enum Solver<T: Real> {
     },
 }
 
-/// The f32 fluid that a device run holds (case validation admits `run.device = "gpu"` only
-/// with `fluid.precision = "f32"`).
-fn as_f32<T: Real>(f: &mut Fluid<T>) -> anyhow::Result<&mut Fluid<f32>> {
-    (f as &mut dyn std::any::Any).downcast_mut::<Fluid<f32>>().ok_or_else(|| {
-        anyhow::anyhow!("the device stores the populations in f32: set fluid.precision = \"f32\"")
-    })
+/// A host fluid as the storage precision it has, for the device fluid's calls (which take
+/// the device's precisions, [`crate::device::fluid::DeviceReal`]).
+enum HostFluid<'a> {
+    F32(&'a mut Fluid<f32>),
+    F64(&'a mut Fluid<f64>),
 }
 
-/// A coupled state of a device run's precision (f32, as [`as_f32`]).
+fn host_fluid<T: Real>(f: &mut Fluid<T>) -> anyhow::Result<HostFluid<'_>> {
+    let any = f as &mut dyn std::any::Any;
+    if any.is::<Fluid<f32>>() {
+        return any
+            .downcast_mut::<Fluid<f32>>()
+            .map(HostFluid::F32)
+            .ok_or_else(|| anyhow::anyhow!("the host fluid is not the f32 fluid it is"));
+    }
+    any.downcast_mut::<Fluid<f64>>()
+        .map(HostFluid::F64)
+        .ok_or_else(|| anyhow::anyhow!("the device stores the populations in f32 or f64, not {}", T::NAME))
+}
+
+/// A coupled state of a device run with bodies (f32: the markers work in f32).
 pub(super) fn as_f32_state<T: Real>(s: CoupledState<T>) -> anyhow::Result<CoupledState<f32>> {
     let b: Box<dyn std::any::Any> = Box::new(s);
     b.downcast::<CoupledState<f32>>().map(|s| *s).map_err(|_| {
@@ -115,7 +128,10 @@ impl<T: Real> Solver<T> {
     pub(super) fn sync(&mut self) -> anyhow::Result<()> {
         if let Solver::Device { host, device, synced } = self {
             if !*synced {
-                device.download(as_f32(host)?)?;
+                match host_fluid(host)? {
+                    HostFluid::F32(h) => device.download(h)?,
+                    HostFluid::F64(h) => device.download(h)?,
+                }
                 *synced = true;
             }
         }
@@ -141,7 +157,10 @@ impl<T: Real> Solver<T> {
         match self {
             Solver::Fluid(mut host) => {
                 let ctx = DeviceContext::new()?;
-                let device = DeviceFluid::new(&ctx, as_f32(&mut host)?, DEFAULT_WORKGROUP)?;
+                let device = match host_fluid(&mut host)? {
+                    HostFluid::F32(h) => DeviceFluid::new(&ctx, h, DEFAULT_WORKGROUP)?,
+                    HostFluid::F64(h) => DeviceFluid::new(&ctx, h, DEFAULT_WORKGROUP)?,
+                };
                 Ok(Solver::Device { host, device: Box::new(device), synced: true })
             }
             Solver::Coupled(c) => {

@@ -13,7 +13,7 @@
 override PRE: bool = true;
 
 // Slot n of direction q.
-fn load(q: u32, n: u32) -> f32 {
+fn load(q: u32, n: u32) -> real {
     switch q {
         case 0u: { return f0[n]; }
         case 1u: { return f1[n]; }
@@ -39,7 +39,7 @@ fn load(q: u32, n: u32) -> f32 {
 }
 
 // Slot n of direction q set to v.
-fn store(q: u32, n: u32, v: f32) {
+fn store(q: u32, n: u32, v: real) {
     switch q {
         case 0u: { f0[n] = v; }
         case 1u: { f1[n] = v; }
@@ -72,21 +72,21 @@ fn apply_links(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let l = links[k];
-    let own_q = l.z & 31u;
-    let ghost_q = (l.z >> 8u) & 31u;
-    let periodic = (l.z >> 16u) != 0u;
-    let term = bitcast<f32>(l.w);
+    let own_q = l.dirs & 31u;
+    let ghost_q = (l.dirs >> 8u) & 31u;
+    let periodic = (l.dirs >> 16u) != 0u;
+    let term = l.term;
     if PRE {
-        var v = load(own_q, l.x);
+        var v = load(own_q, l.own);
         if !periodic {
             v = v + term;
         }
-        store(ghost_q, l.y, v);
+        store(ghost_q, l.ghost, v);
     } else {
-        var v = load(ghost_q, l.y);
+        var v = load(ghost_q, l.ghost);
         if !periodic {
             v = v + term;
         }
-        store(own_q, l.x, v);
+        store(own_q, l.own, v);
     }
 }

@@ -16,15 +16,15 @@ override FF: bool = false;
 
 // The post-collision pair (h_i*, h_opp(i)*) from (a, b) = (h_i, h_opp(i)), with cu = c_i . u,
 // cf = c_i . F and the pair's coefficients (collision.rs, `collide`, pass 2).
-fn pair(a: f32, b: f32, cu: f32, cf: f32, p: f32, r: f32, q: f32, n: f32, m: f32) -> vec2<f32> {
+fn pair(a: real, b: real, cu: real, cf: real, p: real, r: real, q: real, n: real, m: real) -> vec2<real> {
     let e = fma(r, cu * cu, fma(n, cu * cf, p));
     let o = fma(q, cu, m * cf);
     if TRT {
         let md = prm.hm * (a - b);
         let sum = a + b;
-        return vec2<f32>((a - fma(prm.hp, sum, md)) + (e + o), (b - fma(prm.hp, sum, -md)) + (e - o));
+        return vec2<real>((a - fma(prm.hp, sum, md)) + (e + o), (b - fma(prm.hp, sum, -md)) + (e - o));
     }
-    return vec2<f32>(fma(prm.keep, a, e + o), fma(prm.keep, b, e - o));
+    return vec2<real>(fma(prm.keep, a, e + o), fma(prm.keep, b, e - o));
 }
 
 @compute @workgroup_size(WG)
@@ -54,24 +54,24 @@ fn stream_collide(@builtin(global_invocation_id) gid: vec3<u32>) {
     // b = f_i[p + o_i] (o_i the padded offset of c_i; u32 arithmetic wraps, and the result is a
     // neighbour of an interior node, so in the padded grid).
     let h0 = f0[p];
-    var a1: f32;
-    var b1: f32;
-    var a3: f32;
-    var b3: f32;
-    var a5: f32;
-    var b5: f32;
-    var a7: f32;
-    var b7: f32;
-    var a9: f32;
-    var b9: f32;
-    var a11: f32;
-    var b11: f32;
-    var a13: f32;
-    var b13: f32;
-    var a15: f32;
-    var b15: f32;
-    var a17: f32;
-    var b17: f32;
+    var a1: real;
+    var b1: real;
+    var a3: real;
+    var b3: real;
+    var a5: real;
+    var b5: real;
+    var a7: real;
+    var b7: real;
+    var a9: real;
+    var b9: real;
+    var a11: real;
+    var b11: real;
+    var a13: real;
+    var b13: real;
+    var a15: real;
+    var b15: real;
+    var a17: real;
+    var b17: real;
     if ODD {
         a1 = f2[p - o1];
         b1 = f1[p + o1];
