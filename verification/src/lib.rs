@@ -43,6 +43,7 @@
 //!   bodies) against the exact restart on a small stirred tank with particles: velocity field and
 //!   bodies after 100 steps.
 
+pub mod backend;
 pub mod cases;
 pub mod fit;
 pub mod reftable;
@@ -177,6 +178,9 @@ pub struct Case {
     pub summary: &'static str,
     /// Runs the case at the given tier.
     pub run: fn(Tier) -> CaseOutput,
+    /// Whether the case runs on the device too (`--device gpu`, [`backend`]): its flow is the
+    /// fluid alone, stepped through [`backend`]'s stepper.
+    pub device: bool,
 }
 
 /// Directory of the committed reference tables.

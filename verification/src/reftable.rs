@@ -30,6 +30,19 @@ use crate::{fmt_num, Column, Table};
 /// Relative tolerance of the comparison with a committed table.
 pub const REL_TOL: f64 = 1e-9;
 
+/// Relative tolerance of the comparison with a committed (CPU) table when the fluid steps on
+/// the device (`--device gpu`). The device performs the CPU's operations in the CPU's order,
+/// but its driver may contract or split `fma` (Vulkan allows it), so its states differ from the
+/// CPU's by round-off (populations within 5e-18 in f64 after 200 steps,
+/// `tests/device_fluid.rs`). A tabulated number moves by that round-off relative to its own
+/// size: most by 1e-12 (Couette 4.1e-12, Taylor–Green 1.7e-12, measured on lavapipe); an
+/// error of a flow run to steady state by the `1.6e-13` of the profile that the steady
+/// criterion leaves, divided by the error: Poiseuille's BGK error of 4e-5 at N = 64 moved by
+/// 4.6e-9 (measured), and at N = 128 (full tier, error 1e-5) it may move by 1.6e-8. 1e-7
+/// leaves a factor of 6 over that; a wrong term on the device moves these numbers in their
+/// leading digits.
+pub const DEVICE_REL_TOL: f64 = 1e-7;
+
 /// The text of a `.ref` file for `tables` of `case` at `tier`.
 pub fn render(case: &str, tier: &str, tables: &[Table]) -> String {
     let mut s = format!(

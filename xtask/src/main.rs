@@ -7,7 +7,7 @@
 //!   and pkg-config (the hdf5 crate), libvulkan1 (the Vulkan loader) and mesa-vulkan-drivers
 //!   (lavapipe, the CPU's Vulkan driver, on which the device backend's tests run without a GPU).
 //! - `ci`: the test command (`.ci/run`): tidy, setup, fmt, clippy, rustdoc, tests, verification
-//!   (quick tier).
+//!   (quick tier, on the CPU and, for the cases that run there, on the device).
 //! - `tidy`: the repository's rules as code (imports against ARCHITECTURE.md's module table,
 //!   modules and verification cases listed in the docs, file length, nothing disabled; see
 //!   `tidy.rs`).
@@ -155,7 +155,11 @@ fn ci(root: &Path) -> Step {
     bench::inlining_guard(root).map_err(Failed)?;
 
     header("verification, quick tier");
-    verify(root, &["--tier".into(), "quick".into()])
+    verify(root, &["--tier".into(), "quick".into()])?;
+
+    // The cases that run on the device, on the CPU's Vulkan driver (lavapipe, `setup`).
+    header("verification on the device, quick tier");
+    verify(root, &["--tier".into(), "quick".into(), "--device".into(), "gpu".into()])
 }
 
 /// `slurry-verify ARGS` in release.

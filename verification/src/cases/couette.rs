@@ -35,6 +35,7 @@ use rayon::prelude::*;
 use slurry::lbm::{FaceBoundary, Fluid, FluidParams};
 
 use super::{channel, column, profile, run_to_steady, STEADY_TOL};
+use crate::backend::Stepper;
 use crate::{fit, CaseOutput, Check, Table, Tier};
 
 const CASE: &str = "couette";
@@ -150,7 +151,7 @@ pub fn run(tier: Tier) -> CaseOutput {
         .map(|&n| {
             let steps = (n * n / 2) as u64;
             let mut f = fluid(n, false, nu);
-            f.run(steps);
+            Stepper::new(&mut f).run(steps);
             let u = profile(&f);
             let ex = exact(n, nu, steps as f64);
             (n, steps, fit::rel_l2(&u, &ex))

@@ -37,9 +37,11 @@
 //! moving-wall rule that did not cancel at the lid's edges: ≈ 1e-5 per step; a Guo source
 //! with non-zero sum: `≈ u F` per step), so the f64 runs are the sensitive ones.
 
+use slurry::device::fluid::DeviceReal;
 use slurry::lattice::{Face, Grid, Q};
 use slurry::lbm::{Boundaries, FaceBoundary, Fluid, FluidParams, Real};
 
+use crate::backend::Stepper;
 use crate::{CaseOutput, Check, Table, Tier};
 
 const CASE: &str = "mass_conservation";
@@ -80,7 +82,7 @@ fn h_max<T: Real>(f: &Fluid<T>) -> f64 {
     m
 }
 
-fn periodic<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
+fn periodic<T: DeviceReal>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     let g = Grid::new(n, n, n);
     let field = random_field(g, 0x5EED_0001);
     let mut f = Fluid::<T>::new(g, params, Boundaries::periodic()).expect("valid set-up");
@@ -88,7 +90,7 @@ fn periodic<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     let (nf, d0) = f.mass_deviation();
     let p0 = f.total_momentum();
     let h = h_max(&f);
-    f.run(steps);
+    Stepper::new(&mut f).run(steps);
     let h = h.max(h_max(&f));
     let (_, d1) = f.mass_deviation();
     let p1 = f.total_momentum();
@@ -102,7 +104,7 @@ fn periodic<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     }
 }
 
-fn lid_box<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
+fn lid_box<T: DeviceReal>(n: usize, params: FluidParams, steps: u64) -> Outcome {
     let g = Grid::new(n, n, n);
     let b =
         Boundaries::closed_box().with(Face::ZMax, FaceBoundary::MovingWall { velocity: [0.05, 0.0, 0.0] });
@@ -112,7 +114,7 @@ fn lid_box<T: Real>(n: usize, params: FluidParams, steps: u64) -> Outcome {
         .expect("even time");
     f.initialize(|_, _, _| (1.0, [0.0; 3]));
     let (nf, d0) = f.mass_deviation();
-    f.run(steps);
+    Stepper::new(&mut f).run(steps);
     // At rest the populations are 0; their scale is set by the lid: f_neq ~ w·6·U.
     let h = h_max(&f);
     let (_, d1) = f.mass_deviation();
