@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
 # The device backend on this machine's GPU, in one command of a few minutes: what the machine
-# has, the device tests against the CPU, and the fluid step's speed against the device's copy
-# bandwidth, measured in the same run. Results go to OUT (default target/device-check/):
-# device-check.json (the machine, the tests' verdicts, times), bench-device.json (one row per
-# grid and collision model, CPU and device, with the copy bandwidth), and the logs.
+# has, the device tests against the CPU, the verification cases that run on the device
+# (`slurry-verify --device gpu`, the CPU's tolerances), and the fluid step's speed against the
+# device's copy bandwidth, measured in the same run. Results go to OUT (default
+# target/device-check/): device-check.json (the machine, the verdicts, times), verify-gpu.json,
+# bench-device.json (one row per grid and collision model, CPU and device, with the copy
+# bandwidth), and the logs.
 #
 # Usage: benches/scripts/device-check.sh [OUT]
 #   from the repository root. With cargo, it builds what it runs (release). Without cargo (a
 #   machine that cannot reach crates.io), it uses prebuilt binaries: SLURRY_BIN (default
-#   target/release/slurry) and, for the tests, every executable target/release/deps/device_*
+#   target/release/slurry), SLURRY_VERIFY_BIN (default target/release/slurry-verify) and, for
+#   the tests, every executable target/release/deps/device_*
 #   (copy them with the tree; `cargo test --release --no-run -p slurry --test device_fluid`,
 #   one `--test` per tests/device_*.rs, builds them).
 # Environment: SIZES (default "128 256 251x251x240"), REPS (default 5), WORKGROUP (default 64).
@@ -37,7 +40,7 @@ fi
 tests=()
 if command -v cargo >/dev/null; then
   echo "== build (release) =="
-  cargo build --release -p slurry-reproduce 2>&1 | tail -n 2
+  cargo build --release -p slurry-reproduce -p slurry-verification 2>&1 | tail -n 2
   targets=()
   for f in tests/device_*.rs; do targets+=(--test "$(basename "$f" .rs)"); done
   mapfile -t tests < <(cargo test --release --no-run -p slurry "${targets[@]}" \
@@ -49,8 +52,10 @@ for line in sys.stdin:
     if m.get("reason") == "compiler-artifact" and m.get("executable") and m["target"]["kind"] == ["test"]:
         print(m["executable"])')
   slurry=target/release/slurry
+  verify=target/release/slurry-verify
 else
   slurry=${SLURRY_BIN:-target/release/slurry}
+  verify=${SLURRY_VERIFY_BIN:-target/release/slurry-verify}
   mapfile -t tests < <(find target/release/deps -maxdepth 1 -type f -executable -name 'device_*' 2>/dev/null | sort)
 fi
 [ -x "$slurry" ] || { echo "device-check: no slurry binary at $slurry" >&2; exit 1; }
@@ -68,6 +73,18 @@ for t in "${tests[@]}"; do
 done
 [ ${#tests[@]} -gt 0 ] || echo "device-check: no device test binaries found (build them with cargo, see the header)" >&2
 
+# The verification cases that run on the device, with the CPU's tolerances and reference
+# tables (the tables read from this checkout).
+echo "== verification on the device (quick tier) =="
+verify_rc=127
+if [ -x "$verify" ]; then
+  SLURRY_WORKSPACE=$PWD "$verify" --device gpu --tier quick --report "$out/verify-gpu.json" >"$out/verify-gpu.log" 2>&1
+  verify_rc=$?
+  grep -E '^\([a-z_]+ in|passed, ' "$out/verify-gpu.log"
+else
+  echo "device-check: no slurry-verify binary at $verify" >&2
+fi
+
 # The fluid step: CPU (all cores) and device in the same run, with the copy bandwidth.
 echo "== bench =="
 args=()
@@ -83,6 +100,8 @@ cat >"$out/device-check.json" <<EOF
   "cores": $(nproc),
   "revision": $(git rev-parse --short HEAD 2>/dev/null | json_escape),
   "tests": [${verdicts}],
+  "verify_exit_status": ${verify_rc},
+  "verify": "verify-gpu.json",
   "bench_exit_status": ${bench_rc},
   "bench": "bench-device.json",
   "seconds": $(( $(date +%s) - t0 ))

@@ -185,11 +185,15 @@ pub struct Case {
 
 /// Directory of the committed reference tables.
 pub fn ref_dir() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("ref")
+    workspace_root().join("verification").join("ref")
 }
 
-/// The workspace root (the directory above this crate).
+/// The workspace root: the directory above this crate, or `SLURRY_WORKSPACE` when set (a
+/// binary built in another checkout, as `benches/scripts/device-check.sh` runs it).
 pub fn workspace_root() -> std::path::PathBuf {
+    if let Some(root) = std::env::var_os("SLURRY_WORKSPACE").filter(|r| !r.is_empty()) {
+        return root.into();
+    }
     std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .expect("verification/ has a parent")
