@@ -19,12 +19,13 @@
 //! Runs on the Vulkan adapter the machine has (Mesa's lavapipe in CI, `cargo xtask setup`):
 //! about 200 steps each way. Without one it fails, with the device's error.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use slurry_reproduce::{paper_case, reproduce, scale_case, schedule, ReproduceOptions};
+use slurry_reproduce::reproduce;
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
+mod packs;
 
 /// Revolutions run from the pack on each processor.
 const REVOLUTIONS: f64 = 0.2;
@@ -35,30 +36,15 @@ const SCALE: f64 = 0.25;
 const PACK: &str = "2026-12-07-s0.25-steady";
 
 fn run(out: &Path, gpu: bool) -> (slurry_reproduce::report::Results, String) {
-    let pack: PathBuf = common::root().join("reproduce").join(CASE).join("runs").join(PACK).join("state.h5");
-    let p = slurry::io::read_state_pack(&pack).unwrap_or_else(|e| panic!("{}: {e}", pack.display()));
-    let scaled = scale_case(&paper_case(CASE).unwrap().case().unwrap(), SCALE).unwrap();
-    let sched = schedule(&scaled, 1.0).unwrap();
-    let ramp = sched.ramp_steps.div_ceil(sched.output_every) * sched.output_every;
-    let after = (p.time_step - ramp) as f64 / sched.steps_per_revolution;
-    let opts = ReproduceOptions {
-        scale: SCALE,
-        revolutions: after + REVOLUTIONS,
-        out: out.to_path_buf(),
-        cache: out.join("cache"),
-        resume: false,
-        switch_contacts: false,
-        overwrite: false,
-        quiet: true,
-        bed: Default::default(),
-        contacts: Default::default(),
-        mach_limit: Some(0.4),
-        until_steady: None,
-        start_from: Some(pack.clone()),
-        gpu,
-    };
-    let s = reproduce(CASE, &opts)
-        .unwrap_or_else(|e| panic!("{CASE} (gpu {gpu}) from {}: {e:#}", pack.display()));
+    let c = packs::continuation(CASE, PACK, SCALE, REVOLUTIONS, out, 0.4, gpu);
+    let s = reproduce(CASE, &c.options)
+        .unwrap_or_else(|e| panic!("{CASE} (gpu {gpu}) from {}: {e:#}", c.pack.display()));
+    match &s.results.start {
+        slurry_reproduce::start::RunStart::StatePack(from) => {
+            assert_eq!(from.step, c.step, "the pack's step")
+        }
+        other => panic!("started from {other:?}, not the pack"),
+    }
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
     let device = manifest["sessions"].as_array().and_then(|s| s.last()).and_then(|s| s["device"].as_str());

@@ -33,13 +33,14 @@
 //!
 //! Each continuation is about 10 000 steps of the coupled step (25–45 ms each on 2 cores).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use slurry_reproduce::start::RunStart;
-use slurry_reproduce::{paper_case, reproduce, scale_case, schedule, ReproduceOptions};
+use slurry_reproduce::{paper_case, reproduce, scale_case, schedule};
 
 #[path = "../../tests/common/mod.rs"]
 mod common;
+mod packs;
 
 /// Revolutions run from each pack (the N ≥ 10).
 const REVOLUTIONS: f64 = 10.0;
@@ -130,40 +131,21 @@ fn bands(csv: &Path, nz: f64, spr: f64, ramp: f64) -> [Band; 4] {
 /// Runs `c` from its pack for [`REVOLUTIONS`] revolutions into `out`; returns the results and
 /// the pack's step.
 fn continue_from_pack(c: &SteadyCase, out: &Path) -> (slurry_reproduce::report::Results, u64) {
-    let archive = common::root().join("reproduce").join(c.name).join("runs").join(c.pack);
-    let pack: PathBuf = archive.join("state.h5");
-    let p = slurry::io::read_state_pack(&pack).unwrap_or_else(|e| panic!("{}: {e}", pack.display()));
+    // A health check only (no number depends on it): the campaigns' limit. pbt-ld4's steady
+    // flow peaks at a Mach number of 0.301 near the blades within these 10 revolutions.
+    let packs::Continuation { pack, step, options: opts } =
+        packs::continuation(c.name, c.pack, SCALE, REVOLUTIONS, out, MACH_LIMIT, false);
     let scaled = scale_case(&paper_case(c.name).unwrap().case().unwrap(), SCALE).unwrap();
     let sched = schedule(&scaled, 1.0).unwrap();
-    let ramp = sched.ramp_steps.div_ceil(sched.output_every) * sched.output_every;
-    let after = (p.time_step - ramp) as f64 / sched.steps_per_revolution;
-    let opts = ReproduceOptions {
-        scale: SCALE,
-        revolutions: after + REVOLUTIONS,
-        out: out.to_path_buf(),
-        cache: out.join("cache"),
-        resume: false,
-        switch_contacts: false,
-        overwrite: false,
-        quiet: true,
-        bed: Default::default(),
-        contacts: Default::default(),
-        // A health check only (no number depends on it): the campaigns' limit. pbt-ld4's steady
-        // flow peaks at a Mach number of 0.301 near the blades within these 10 revolutions.
-        mach_limit: Some(MACH_LIMIT),
-        until_steady: None,
-        start_from: Some(pack.clone()),
-        gpu: false,
-    };
     let s = reproduce(c.name, &opts).unwrap_or_else(|e| panic!("{} from {}: {e:#}", c.name, pack.display()));
     let r = s.results;
     match &r.start {
-        RunStart::StatePack(from) => assert_eq!((from.step, &from.pack), (p.time_step, &pack)),
+        RunStart::StatePack(from) => assert_eq!((from.step, &from.pack), (step, &pack)),
         other => panic!("{}: started from {other:?}, not the pack", c.name),
     }
-    let run = (s.record.run.steps - p.time_step) as f64 / sched.steps_per_revolution;
+    let run = (s.record.run.steps - step) as f64 / sched.steps_per_revolution;
     assert!((run - REVOLUTIONS).abs() < 1e-9, "{}: ran {run} revolutions", c.name);
-    (r, p.time_step)
+    (r, step)
 }
 
 #[test]

@@ -698,7 +698,10 @@ impl<T: Real> Coupled<T> {
     /// # Errors
     /// At an odd time step.
     pub fn snapshot(&self) -> Result<CoupledState<T>, FluidError> {
-        Ok(CoupledState { fluid: self.fluid.snapshot()?, bodies: self.snapshot_bodies() })
+        Ok(CoupledState {
+            fluid: self.fluid.snapshot()?,
+            bodies: body_states(&self.bodies, &self.velocity_change, &self.loads),
+        })
     }
 
     /// Restores a state taken by [`Coupled::snapshot`] from a coupling built the same way (same
@@ -724,27 +727,6 @@ impl<T: Real> Coupled<T> {
         // The previous band := the whole grid, so that the next step clears all of it.
         self.band_prev.set_whole_grid();
         Ok(())
-    }
-
-    /// The bodies' part of [`Coupled::snapshot`].
-    fn snapshot_bodies(&self) -> Vec<BodyState> {
-        self.bodies
-            .iter()
-            .zip(&self.velocity_change)
-            .zip(&self.loads)
-            .map(|((b, c), l)| {
-                let q = b.orientation.into_inner();
-                BodyState {
-                    position: b.position,
-                    orientation: [q.w, q.i, q.j, q.k],
-                    velocity: b.velocity,
-                    angular_velocity: b.angular_velocity,
-                    time: b.time,
-                    velocity_change: *c,
-                    contact: (l.contact_force, l.contact_torque),
-                }
-            })
-            .collect()
     }
 
     /// Time spent per phase of the step (see [`StepTimings`]).
@@ -890,6 +872,33 @@ fn shared_sets(sets: impl Iterator<Item = Vec<Marker>>) -> Vec<Arc<[Marker]>> {
 
 #[cfg(test)]
 mod tests;
+
+/// The bodies' states for a snapshot: pose, velocities, time, last velocity change and the
+/// averaged contact loads (what [`restore_bodies`] puts back); what [`Coupled::snapshot`] and
+/// the device's coupled step share.
+pub(crate) fn body_states(
+    bodies: &[RigidBody],
+    velocity_change: &[(Vec3, Vec3)],
+    loads: &[BodyLoads],
+) -> Vec<BodyState> {
+    bodies
+        .iter()
+        .zip(velocity_change)
+        .zip(loads)
+        .map(|((b, c), l)| {
+            let q = b.orientation.into_inner();
+            BodyState {
+                position: b.position,
+                orientation: [q.w, q.i, q.j, q.k],
+                velocity: b.velocity,
+                angular_velocity: b.angular_velocity,
+                time: b.time,
+                velocity_change: *c,
+                contact: (l.contact_force, l.contact_torque),
+            }
+        })
+        .collect()
+}
 
 /// Restores the bodies, their last velocity changes and their loads (the contact part; the
 /// rest is recomputed by the next step) from a snapshot's `states`: what [`Coupled::restore`]

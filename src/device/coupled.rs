@@ -22,7 +22,7 @@ use super::markers::DeviceMarkers;
 use super::{Context, DeviceError, DeviceFluid};
 use crate::contact::{Contacts, Walls};
 use crate::coupling::{
-    advance_bodies, interior_loads, restore_bodies, shell_inertia, BodyLoads, BodyState, BodyUpdate,
+    advance_bodies, body_states, interior_loads, restore_bodies, shell_inertia, BodyLoads, BodyUpdate,
     CoupledState, CouplingParams, InteriorMomentum,
 };
 use crate::lbm::Fluid;
@@ -257,24 +257,7 @@ impl DeviceCoupled {
     pub fn snapshot(&mut self) -> Result<CoupledState<f32>, DeviceError> {
         self.download()?;
         let fluid = self.host.snapshot().map_err(|e| DeviceError::Mismatch(e.to_string()))?;
-        let bodies = self
-            .bodies
-            .iter()
-            .zip(&self.velocity_change)
-            .zip(&self.loads)
-            .map(|((b, c), l)| {
-                let q = b.orientation.into_inner();
-                BodyState {
-                    position: b.position,
-                    orientation: [q.w, q.i, q.j, q.k],
-                    velocity: b.velocity,
-                    angular_velocity: b.angular_velocity,
-                    time: b.time,
-                    velocity_change: *c,
-                    contact: (l.contact_force, l.contact_torque),
-                }
-            })
-            .collect();
+        let bodies = body_states(&self.bodies, &self.velocity_change, &self.loads);
         Ok(CoupledState { fluid, bodies })
     }
 
