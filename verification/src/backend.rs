@@ -19,7 +19,7 @@ use slurry::lbm::Fluid;
 
 static DEVICE: OnceLock<Context> = OnceLock::new();
 
-/// Opens the device for the rest of the process: from here on [`Stepper`]s step there.
+/// Opens the device for the rest of the process: from here on the cases' fluid steps there.
 ///
 /// # Errors
 /// No Vulkan adapter, or the device could not be opened.
