@@ -32,7 +32,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{Context, DeviceError};
+use super::{compute_pipeline, read_buffers, Context, DeviceError};
 use crate::lattice::{Grid, Q, W};
 use crate::lbm::{Fluid, Real};
 
@@ -457,17 +457,7 @@ impl DeviceFluid {
         entry: &str,
         constants: &[(&str, f64)],
     ) -> wgpu::ComputePipeline {
-        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: Some(layout),
-            module,
-            entry_point: Some(entry),
-            compilation_options: wgpu::PipelineCompilationOptions {
-                constants,
-                zero_initialize_workgroup_memory: false,
-            },
-            cache: None,
-        })
+        compute_pipeline(device, Some(layout), module, entry, constants)
     }
 
     /// The even and odd sweep pipelines for the present force-field state, made on first use.
@@ -652,27 +642,14 @@ impl DeviceFluid {
     /// Copies the first `out.len()` values of `buffer` (at most one direction's array) into
     /// `out` through the staging buffer.
     fn read_back<T: DeviceReal>(&self, buffer: &wgpu::Buffer, out: &mut [T]) -> Result<(), DeviceError> {
-        let bytes = size_of_val(out) as u64;
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        enc.copy_buffer_to_buffer(buffer, 0, &self.staging, 0, bytes);
-        self.queue.submit([enc.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.staging.map_async(wgpu::MapMode::Read, ..bytes, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        {
-            let view =
-                self.staging.get_mapped_range(..bytes).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-            out.copy_from_slice(bytemuck::cast_slice(&view[..]));
-        }
-        self.staging.unmap();
-        Ok(())
+        let bytes = size_of_val(out);
+        read_buffers(
+            &self.device,
+            &self.queue,
+            &self.staging,
+            &[(buffer, bytes)],
+            bytemuck::cast_slice_mut(out),
+        )
     }
 
     /// Which axes are periodic (the host fluid's faces when this device fluid was made).

@@ -65,7 +65,7 @@
 use wgpu::util::DeviceExt;
 
 use super::fluid::DeviceFluid;
-use super::DeviceError;
+use super::{compute_pipeline, read_buffers, DeviceError};
 use crate::ibm::DeltaKernel;
 use crate::lattice::Grid;
 use crate::rigid::{Marker, RigidBody, Vec3};
@@ -176,17 +176,7 @@ fn make_kernel(
     bindings: &[(u32, &wgpu::Buffer)],
     threads: usize,
 ) -> Kernel {
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module,
-        entry_point: Some(entry),
-        compilation_options: wgpu::PipelineCompilationOptions {
-            constants,
-            zero_initialize_workgroup_memory: false,
-        },
-        cache: None,
-    });
+    let pipeline = compute_pipeline(device, None, module, entry, constants);
     let entries: Vec<wgpu::BindGroupEntry> = bindings
         .iter()
         .map(|&(k, b)| wgpu::BindGroupEntry { binding: k, resource: b.as_entire_binding() })
@@ -730,32 +720,6 @@ impl DeviceMarkers {
     /// Copies the first bytes of each buffer, one after the other, into `out` through the
     /// staging buffer, and waits.
     fn read(&self, parts: &[(&wgpu::Buffer, usize)], out: &mut [u8]) -> Result<(), DeviceError> {
-        let total: usize = parts.iter().map(|p| p.1).sum();
-        if total == 0 {
-            return Ok(());
-        }
-        let mut enc = self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
-        let mut at = 0u64;
-        for (b, n) in parts {
-            enc.copy_buffer_to_buffer(b, 0, &self.staging, at, *n as u64);
-            at += *n as u64;
-        }
-        self.queue.submit([enc.finish()]);
-        let (tx, rx) = std::sync::mpsc::channel();
-        self.staging.map_async(wgpu::MapMode::Read, ..at, move |r| {
-            let _ = tx.send(r);
-        });
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?
-            .map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-        {
-            let view = self.staging.get_mapped_range(..at).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
-            out[..total].copy_from_slice(&view[..]);
-        }
-        self.staging.unmap();
-        Ok(())
+        read_buffers(&self.device, &self.queue, &self.staging, parts, out)
     }
 }

@@ -148,3 +148,63 @@ impl Context {
         &self.limits
     }
 }
+
+/// A compute pipeline of `module`'s `entry` with the override `constants`, on `layout` (or the
+/// layout derived from the kernel when `None`): what every kernel of the backend is made with.
+pub(crate) fn compute_pipeline(
+    device: &wgpu::Device,
+    layout: Option<&wgpu::PipelineLayout>,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(entry),
+        layout,
+        module,
+        entry_point: Some(entry),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            zero_initialize_workgroup_memory: false,
+        },
+        cache: None,
+    })
+}
+
+/// Copies the first bytes of each buffer (`(buffer, bytes)`), one after the other, into `out`
+/// through `staging` (a mappable buffer at least as long as their sum), and waits: the
+/// backend's one read-back.
+///
+/// # Errors
+/// [`DeviceError::Wgpu`] when the copy or the mapping fails.
+pub(crate) fn read_buffers(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    staging: &wgpu::Buffer,
+    parts: &[(&wgpu::Buffer, usize)],
+    out: &mut [u8],
+) -> Result<(), DeviceError> {
+    let total: usize = parts.iter().map(|p| p.1).sum();
+    if total == 0 {
+        return Ok(());
+    }
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: None });
+    let mut at = 0u64;
+    for (b, n) in parts {
+        enc.copy_buffer_to_buffer(b, 0, staging, at, *n as u64);
+        at += *n as u64;
+    }
+    queue.submit([enc.finish()]);
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.map_async(wgpu::MapMode::Read, ..at, move |r| {
+        let _ = tx.send(r);
+    });
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+    rx.recv().map_err(|e| DeviceError::Wgpu(e.to_string()))?.map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+    {
+        let view = staging.get_mapped_range(..at).map_err(|e| DeviceError::Wgpu(e.to_string()))?;
+        out[..total].copy_from_slice(&view[..]);
+    }
+    staging.unmap();
+    Ok(())
+}
