@@ -311,9 +311,9 @@ impl DeviceFluid {
         let sweep_module = module("stream_collide", STREAM_COLLIDE);
         let links_module = module("links", LINKS);
         let make = |pre: bool| {
-            Self::pipeline(
+            compute_pipeline(
                 &device,
-                &pipeline_layout,
+                Some(&pipeline_layout),
                 &links_module,
                 "apply_links",
                 &[("WG", workgroup as f64), ("PRE", pre as u8 as f64)],
@@ -450,25 +450,15 @@ impl DeviceFluid {
         })
     }
 
-    fn pipeline(
-        device: &wgpu::Device,
-        layout: &wgpu::PipelineLayout,
-        module: &wgpu::ShaderModule,
-        entry: &str,
-        constants: &[(&str, f64)],
-    ) -> wgpu::ComputePipeline {
-        compute_pipeline(device, Some(layout), module, entry, constants)
-    }
-
     /// The even and odd sweep pipelines for the present force-field state, made on first use.
     fn sweep_pipelines(&mut self) -> Result<(), DeviceError> {
         let ff = self.force.is_some();
         for odd in [false, true] {
             if self.sweeps[odd as usize][ff as usize].is_none() {
                 let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
-                let p = Self::pipeline(
+                let p = compute_pipeline(
                     &self.device,
-                    &self.pipeline_layout,
+                    Some(&self.pipeline_layout),
                     &self.sweep_module,
                     "stream_collide",
                     &[

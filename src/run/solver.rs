@@ -41,14 +41,11 @@ enum HostFluid<'a> {
 fn host_fluid<T: Real>(f: &mut Fluid<T>) -> anyhow::Result<HostFluid<'_>> {
     let any = f as &mut dyn std::any::Any;
     if any.is::<Fluid<f32>>() {
-        return any
-            .downcast_mut::<Fluid<f32>>()
-            .map(HostFluid::F32)
-            .ok_or_else(|| anyhow::anyhow!("the host fluid is not the f32 fluid it is"));
+        any.downcast_mut().map(HostFluid::F32)
+    } else {
+        any.downcast_mut().map(HostFluid::F64)
     }
-    any.downcast_mut::<Fluid<f64>>()
-        .map(HostFluid::F64)
-        .ok_or_else(|| anyhow::anyhow!("the device stores the populations in f32 or f64, not {}", T::NAME))
+    .ok_or_else(|| anyhow::anyhow!("the device stores the populations in f32 or f64, not {}", T::NAME))
 }
 
 /// A coupled state of a device run with bodies (f32: the markers work in f32).
