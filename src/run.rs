@@ -65,7 +65,7 @@ use crate::io::checkpoint::PrecisionMismatch;
 use crate::io::timeseries::{Columns, ImpellerTorques};
 use crate::io::{
     atomic_write_bytes, read_checkpoint, read_state_pack, write_checkpoint_from, write_fields_h5, write_xdmf,
-    ParticleAggregates, ParticleHistoryWriter, TimeSeriesRow, TimeSeriesWriter,
+    Leg, ParticleAggregates, ParticleHistoryWriter, TimeSeriesRow, TimeSeriesWriter,
 };
 use crate::lattice::Grid;
 use crate::lbm::{Fluid, Health, Real};
@@ -73,10 +73,11 @@ use crate::lbm::{Fluid, Health, Real};
 mod pack;
 mod solver;
 
-use pack::restore_from_pack;
 pub use pack::{
-    pack_fluid_state, pack_is_of_case, restore_coupled_from_pack, state_pack_of, write_run_state_pack,
+    pack_fluid_state, pack_is_of_case, read_legs, restore_coupled_from_pack, state_pack_of,
+    write_run_state_pack,
 };
+use pack::{restore_from_pack, seed_timeseries, write_legs, INITIAL_LEG};
 use solver::Solver;
 
 /// File names written into the output directory.
@@ -93,6 +94,9 @@ pub mod files {
     pub const CASE: &str = "case.toml";
     /// The latest checkpoint (see [`crate::io::checkpoint`]).
     pub const CHECKPOINT: &str = "checkpoint.h5";
+    /// The legs the run was stepped in (JSON, [`crate::io::Leg`]): written at a fresh start,
+    /// the last leg's `last_step` set when a state pack is written.
+    pub const LEGS: &str = "legs.json";
     /// Particle histories (see [`crate::io::particles`]); only for cases with particles.
     pub const PARTICLES_H5: &str = "particles.h5";
 
@@ -460,8 +464,10 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
         } else {
             Solver::Coupled(Box::new(drive::coupled(case, &inits, impeller.as_ref())?))
         };
+        let mut packed_history = None;
         if let Some(pack) = pack {
-            let p = read_state_pack(pack).map_err(|e| BadResume(e.to_string()))?;
+            let mut p = read_state_pack(pack).map_err(|e| BadResume(e.to_string()))?;
+            packed_history = Some((p.history.take(), p.label.clone()));
             let run = format!("the run in {}", out_dir.display());
             // The pack's own fingerprint where the case is the same up to normalisation (the
             // run's `case.toml` continues the run it was written by), or, with
@@ -502,7 +508,35 @@ impl<'a, T: Real + hdf5::H5Type> Session<'a, T> {
                 })?;
             // The largest Mach number of the rows kept (the summary's covers the whole run).
             (timeseries, kept_max_mach(&timeseries_path))
+        } else if let (Some(pack), Some((history, label))) = (pack, packed_history) {
+            // The packed run goes on: its time series so far, then this leg's rows; its legs,
+            // then this one.
+            let step = solver.fluid().time();
+            let mut legs = Vec::new();
+            if let Some(h) = &history {
+                seed_timeseries(&timeseries_path, &h.timeseries, columns, pack)?;
+                legs.clone_from(&h.legs);
+            }
+            legs.push(Leg {
+                first_step: step,
+                last_step: step,
+                start: format!(
+                    "the state pack {} ('{label}') at step {step}{}",
+                    pack.display(),
+                    if history.is_some() { "" } else { "; the run's history before it is not in the pack" }
+                ),
+            });
+            write_legs(out_dir, &legs)?;
+            let timeseries = if history.is_some() {
+                TimeSeriesWriter::resume(&timeseries_path, step)
+            } else {
+                TimeSeriesWriter::create_columns(&timeseries_path, columns)
+            }
+            .with_context(|| format!("cannot write {}", timeseries_path.display()))?;
+            (timeseries, kept_max_mach(&timeseries_path))
         } else {
+            let legs = [Leg { first_step: 0, last_step: 0, start: INITIAL_LEG.to_string() }];
+            write_legs(out_dir, &legs)?;
             let timeseries = TimeSeriesWriter::create_columns(&timeseries_path, columns)
                 .with_context(|| format!("cannot write {}", timeseries_path.display()))?;
             (timeseries, 0.0)

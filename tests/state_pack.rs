@@ -126,7 +126,7 @@ fn commands_pack_and_continue() {
     let longer = common::write_case(
         dir.path(),
         "longer.toml",
-        &with_run("steps = 60\noutput_every = 20", "nu = 0.02"),
+        &with_run("steps = 60\noutput_every = 20\ncheckpoint_every = 60", "nu = 0.02"),
     );
     let b = dir.path().join("b");
     let o = common::slurry(&[
@@ -139,9 +139,48 @@ fn commands_pack_and_continue() {
         pack.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", common::stderr(&o));
+    // One run: the packed run's rows as written, then this leg's after the pack's step.
+    let series_a = std::fs::read_to_string(a.join("timeseries.csv")).unwrap();
     let series = std::fs::read_to_string(b.join("timeseries.csv")).unwrap();
     let steps: Vec<&str> = series.lines().skip(1).map(|l| l.split(',').next().unwrap()).collect();
-    assert_eq!(steps, ["60"], "the time series after the pack's step (whose loads the pack does not hold)");
+    assert_eq!(steps, ["0", "20", "40", "60"], "the packed rows, then this leg's");
+    assert!(series.starts_with(&series_a), "the packed rows byte for byte");
+    let legs = |run: &Path| -> Vec<slurry::io::Leg> { slurry::run::read_legs(run, 0, 0).unwrap() };
+    let b_legs = legs(&b);
+    assert_eq!(
+        b_legs.iter().map(|l| (l.first_step, l.start.contains("first 40"))).collect::<Vec<_>>(),
+        [(0, false), (40, true)]
+    );
+    assert_eq!(b_legs[0].last_step, 40, "the packed leg ends at the pack's step");
+    // Its own pack carries both legs and the whole series; its particle history starts after
+    // the first pack, so a resume checks the frames against the rows after it.
+    let pack_b = dir.path().join("pack-b.h5");
+    let o = common::slurry(&["state-pack", b.to_str().unwrap(), pack_b.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let h = read_state_pack(&pack_b).unwrap().history.expect("a pack of a run directory has its history");
+    assert_eq!(h.timeseries, series);
+    assert_eq!(h.legs.iter().map(|l| (l.first_step, l.last_step)).collect::<Vec<_>>(), [(0, 40), (40, 60)]);
+    let further = common::write_case(
+        dir.path(),
+        "further.toml",
+        &with_run("steps = 80\noutput_every = 20", "nu = 0.02"),
+    );
+    let o = common::slurry(&[
+        "run",
+        further.to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+        "--quiet",
+        "--resume",
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let steps: Vec<String> = std::fs::read_to_string(b.join("timeseries.csv"))
+        .unwrap()
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap().to_string())
+        .collect();
+    assert_eq!(steps, ["0", "20", "40", "60", "80"]);
 
     let other =
         common::write_case(dir.path(), "other.toml", &with_run("steps = 60\noutput_every = 20", "nu = 0.03"));

@@ -809,6 +809,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
         restarts: 0,
         wall_time_s: 0.0,
         sessions: Vec::new(),
+        legs: Vec::new(),
     };
     // The run to `opts.revolutions`; with --until-steady, continued in legs of
     // STEADY_CHECK_REVOLUTIONS (each a resume of the last in this process) until the report's
@@ -822,6 +823,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     // From a state pack the run continues the packed run's time: the legs it has passed are
     // skipped, and it must go past the pack.
     let pack = bed.state_pack.as_ref().map(|p| (p.pack.clone(), p.step));
+    let pack_step = pack.as_ref().map_or(0, |p| p.1);
     if let Some((path, step)) = &pack {
         if !opts.resume {
             target = leg_target(&scaled, opts.revolutions, opts.until_steady, *step as f64);
@@ -871,6 +873,10 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
             Err(e) => {
                 // The manifest says the session ended and why; the run's files and its last
                 // checkpoint stay for a resume. The run's error is the one reported.
+                if let Some(last) = last_step_in_timeseries(&run_dir, &scaled, &sched) {
+                    record_file.legs =
+                        slurry::run::read_legs(&run_dir, pack_step, last as u64).unwrap_or_default();
+                }
                 let _ = record_file.stop(&opts.out, t0.elapsed().as_secs_f64(), &e);
                 return Err(e);
             }
@@ -913,6 +919,7 @@ pub fn reproduce(name: &str, opts: &ReproduceOptions) -> anyhow::Result<Reproduc
     };
     let results = report::write_all(name, &case, &paper, &record, &bed, &opts.out)?;
     let revolutions_done = sched.revolutions_after_ramp(record.run.steps);
+    record_file.legs = slurry::run::read_legs(&run_dir, pack_step, record.run.steps)?;
     record_file.finish(&opts.out, t0.elapsed().as_secs_f64(), record.run.steps, revolutions_done)?;
     let summary = ReproduceSummary {
         record,

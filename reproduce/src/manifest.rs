@@ -88,6 +88,12 @@ pub struct Manifest {
     pub wall_time_s: f64,
     /// Every session, in order.
     pub sessions: Vec<Session>,
+    /// The legs the run was stepped in (`run/legs.json`, recorded when a session ends): one
+    /// for a run from its bed; a run continued from a state pack counts the packed run's legs,
+    /// then its own, its time series one series over all of them. Manifests written before
+    /// legs were recorded have none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub legs: Vec<slurry::io::Leg>,
 }
 
 impl Manifest {
@@ -106,6 +112,7 @@ impl Manifest {
                 revolutions_done: old.revolutions_done,
                 wall_time_s: old.wall_time_s,
                 sessions: old.sessions,
+                legs: old.legs,
                 ..first
             },
             None => first,
@@ -266,6 +273,7 @@ mod tests {
             restarts: 0,
             wall_time_s: 0.0,
             sessions: Vec::new(),
+            legs: Vec::new(),
         };
         let m = Manifest::start(dir.path(), first.clone(), false, this_session(2)).unwrap();
         assert_eq!((m.status.as_str(), m.restarts), ("running", 0));

@@ -118,7 +118,9 @@ pub fn steady_test(case: &Case, run_dir: &Path) -> anyhow::Result<stats::SteadyT
     let path = run_dir.join(slurry::run::files::PARTICLES_H5);
     let hist = slurry::io::read_particle_history(&path)
         .with_context(|| format!("cannot read {}", path.display()))?;
-    Ok(stats::steady_state(&stats::mean_height(&hist.frames, &tank), STEADY_REVOLUTIONS, STEADY_DRIFT))
+    let series = read_timeseries(&run_dir.join(slurry::run::files::TIMESERIES), tank.h, tank.steps_per_rev)?;
+    let mean = stats::joined_mean_height(&series.height_points(), &hist.frames, &tank);
+    Ok(stats::steady_state(&mean, STEADY_REVOLUTIONS, STEADY_DRIFT))
 }
 
 /// The paper's figure of the mid-plane for an impeller: 3 for the disk, 4 for the PBT.
@@ -169,6 +171,11 @@ pub fn read_timeseries(path: &Path, h: f64, steps_per_rev: f64) -> anyhow::Resul
 }
 
 impl TimeSeries {
+    /// `(time, ⟨z_p⟩/H)` of every row, time in revolutions (`1/N`), as the particle frames.
+    pub fn height_points(&self) -> Vec<(f64, f64)> {
+        self.time.iter().copied().zip(self.mean_height.iter().copied()).collect()
+    }
+
     /// The step of the last row (`time` is `step / steps_per_rev`: the rounding recovers the
     /// integer step), or `None` for a series without rows.
     pub fn last_step(&self, steps_per_rev: f64) -> Option<f64> {
@@ -450,7 +457,7 @@ pub fn write_all(
         steady_tolerance: STEADY_DRIFT,
         power_revs: POWER_REVOLUTIONS,
     };
-    let st = Stats::compute(frames, &hist.statics, &tank, &options, &po_series)?;
+    let st = Stats::compute(frames, &hist.statics, &tank, &options, &po_series, &timeseries.height_points())?;
     stats::write_stats_h5(&out.join("statistics.h5"), &st)?;
     let height = st.mean_height.clone();
     let steady = st.steady.clone();
@@ -523,7 +530,11 @@ pub fn write_all(
     }
     let figs =
         figures(name, paper, &tank, &hist, &speed, (nx, nz), j as f64, &snapshots, &timeseries, &st, out)?;
-    let md = report_md(name, case, paper, summary, bed, &results, &figs);
+    // A run from a state pack that carried the packed run's time series.
+    let joined = bed.state_pack.as_ref().is_some_and(|p| {
+        timeseries.time.first().is_some_and(|t| (t * tank.steps_per_rev).round() < p.step as f64)
+    });
+    let md = report_md(name, case, paper, summary, (bed, joined), &results, &figs);
     let p = out.join("report.md");
     atomic_write_bytes(&p, md.as_bytes()).with_context(|| format!("cannot write {}", p.display()))?;
     Ok(results)
@@ -771,7 +782,7 @@ fn report_md(
     case: &Case,
     paper: &PaperValues,
     s: &RunRecord,
-    bed: &BedRecord,
+    (bed, joined): (&BedRecord, bool),
     r: &Results,
     figs: &[(String, String)],
 ) -> String {
@@ -802,9 +813,16 @@ fn report_md(
         (bed.bed.mean_height + 0.5) / g.nz as f64
     );
     let start = match (&bed.start_from, &bed.state_pack) {
+        (None, Some(p)) if joined => format!(
+            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`). The run goes on as one: \
+             its time series holds the packed run's rows (the legs are in `manifest.json`), so ⟨z_p⟩/H over \
+             time, the steady test and the power numbers are the whole run's; φ(z), the kinetic energy and the \
+             orientations are from the particle frames of this leg, after the pack.",
+            p.describe()
+        ),
         (None, Some(p)) => format!(
-            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`). The statistics are those \
-             of this run's own revolutions after the pack.",
+            "- Start: **not a settled bed** (the paper's start) but {} (`--start-from`), a pack without the \
+             run's history. The statistics are those of this run's own revolutions after the pack.",
             p.describe()
         ),
         (Some(from), _) => format!(

@@ -712,6 +712,7 @@ mod tests {
             bodies: bodies.then(Vec::new),
             case: case.fingerprint(),
             label: "test".into(),
+            history: None,
         };
         slurry::io::write_state_pack(path, &pack).unwrap();
     }

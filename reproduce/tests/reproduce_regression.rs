@@ -196,6 +196,44 @@ fn pbt_ld2_reduced_run() {
         slurry_reproduce::check_until_steady(0.05, 0.1).unwrap_err().contains("--until-steady 0.05"),
         "a cap below the revolutions is refused"
     );
+    assert_eq!(
+        m.legs.iter().map(|l| (l.first_step, l.last_step)).collect::<Vec<_>>(),
+        [(0, 1200)],
+        "one leg, over its resumes"
+    );
+
+    // A state pack of the run (at its checkpoint's step) continues it as one run: the series
+    // goes on after the packed rows (kept byte for byte), the legs are counted, the report
+    // says so.
+    let state = dir.path().join("state.h5");
+    let k = slurry::run::write_run_state_pack(&opts.out.join("run"), &state, "pbt-ld2 test").unwrap();
+    assert!((1000..=1200).contains(&k), "the checkpoint's step {k}");
+    let leg2 = ReproduceOptions {
+        out: dir.path().join("leg2"),
+        revolutions: 0.3,
+        resume: false,
+        start_from: Some(state.clone()),
+        ..opts.clone()
+    };
+    let cont = reproduce("pbt-ld2", &leg2).unwrap();
+    assert_eq!(cont.record.run.steps, 1300);
+    let through_k: String = std::fs::read_to_string(opts.out.join("run/timeseries.csv"))
+        .unwrap()
+        .split_inclusive('\n')
+        .enumerate()
+        .filter(|(i, l)| *i == 0 || l.split(',').next().unwrap().parse::<u64>().unwrap() <= k)
+        .map(|(_, l)| l)
+        .collect();
+    let joined = std::fs::read_to_string(leg2.out.join("run/timeseries.csv")).unwrap();
+    assert!(joined.starts_with(&through_k), "the packed rows, byte for byte");
+    let own = (1300 - k) / 50;
+    assert_eq!(joined.lines().count(), through_k.lines().count() + own as usize, "then this leg's rows");
+    let m2 = slurry_reproduce::manifest::Manifest::read(&leg2.out).unwrap();
+    assert_eq!(m2.legs.iter().map(|l| (l.first_step, l.last_step)).collect::<Vec<_>>(), [(0, k), (k, 1300)]);
+    assert!(m2.legs[1].start.contains("pbt-ld2 test"), "{:?}", m2.legs);
+    let report2 = std::fs::read_to_string(leg2.out.join("report.md")).unwrap();
+    assert!(report2.contains("The run goes on as one"), "{report2}");
+    assert!((cont.results.revolutions - 1.3).abs() < 1e-9, "t N at the end: {}", cont.results.revolutions);
 
     // `slurry bench --coupled --from`: the coupled step timed from this run's checkpoint (its
     // particles from the case the checkpoint was written with) starts at the checkpoint's step,

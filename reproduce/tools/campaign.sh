@@ -43,8 +43,16 @@
 #   100 revolutions, 0.337 later), so the direction is not guaranteed. Archive the coarse run too
 #   (archive.sh writes its start pack), so that the start survives the runs directory.
 #
-# After a machine loss (the runs directory gone): the same command starts each case again from
-# its dry bed; the stepping is deterministic, so the runs repeat their lost predecessors bitwise.
+# - Each leg's end (a case finished, or stopped by a signal or an error at a checkpoint) writes
+#   the case's state pack, RUNS/CASE-sSCALE/state.h5 (`slurry state-pack`: the flow, every body
+#   and the run's history, its time series and legs; 5-6 MB at s = 1/4, under 40 MB at s = 1/2).
+#   Started again where the case has no checkpoint but that pack, it continues from the pack
+#   (`--start-from`), as one run: the time series goes on, the legs are counted in its
+#   manifest. Commit the pack (reproduce/tools/save-leg.sh) to continue on another machine:
+#   copy it back to RUNS/CASE-sSCALE/state.h5 there and run the same command.
+#
+# After a machine loss with no pack: the same command starts each case again from its dry bed;
+# the stepping is deterministic, so the runs repeat their lost predecessors bitwise.
 #
 # Example: nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 pbt-ld2 pbt-ld4 >> ~/slurry-runs/campaign.log 2>&1 &
 #          LANES=2 nohup reproduce/tools/campaign.sh ~/slurry-runs 0.5 disk-ld1 disk-ld2 disk-ld4 pbt-ld4 >> ... &
@@ -98,7 +106,13 @@ run_at() {
   revs=${REVOLUTIONS:-$revs} cap=${CAP:-$cap}
   if [ "$cap" -lt "$revs" ]; then echo "$(date -u +%FT%TZ) $c s$s: CAP=$cap is below the $revs revolutions asked for" >&2; return 1; fi
   local args=(reproduce "$c" --scale "$s" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet "$@" "${extra[@]}")
-  if [ -f "$d/run/run/checkpoint.h5" ]; then args+=(--resume); fi
+  if [ -f "$d/run/run/checkpoint.h5" ]; then
+    args+=(--resume)
+  elif [ -f "$d/state.h5" ]; then
+    # The run directory is gone but a leg's pack is there (kept, or copied back from the
+    # checkout's archive): the run goes on from it, as one run.
+    args=(reproduce "$c" --scale "$s" --revolutions $revs --until-steady $cap --out "$d/run" --cache "$runs/cache" "${threads[@]}" --quiet --overwrite --start-from "$d/state.h5" "${extra[@]}")
+  fi
   echo "$(date -u +%FT%TZ) $c s$s: $BIN ${args[*]}"
   # In the background, so that the SIGTERM that stop() sends this lane reaches its trap at once
   # and is passed on: slurry then stops at a checkpoint of the step it has reached. (A lane,
@@ -111,6 +125,12 @@ run_at() {
     kill -0 $child 2>/dev/null || break
   done
   trap - TERM
+  # The leg's end, finished or stopped at a checkpoint: its state pack, the run's whole state
+  # and history in a few megabytes (commit it to continue on another machine).
+  if [ -f "$d/run/run/checkpoint.h5" ]; then
+    "$BIN" state-pack "$d/run/run" "$d/state.h5.new" --label "$c at s = $s" >> "$d/log.txt" 2>&1 \
+      && mv "$d/state.h5.new" "$d/state.h5" && echo "$(date -u +%FT%TZ) $c s$s: state pack $d/state.h5"
+  fi
   if [ $rc -eq 0 ]; then
     touch "$d/DONE"; echo "$(date -u +%FT%TZ) $c s$s: finished"
   else

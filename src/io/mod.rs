@@ -45,6 +45,8 @@ pub use particles::{
     read_particle_history, read_particle_history_from, ParticleFrame, ParticleHistory, ParticleHistoryWriter,
     ParticleProperties, ParticleStatic, ParticlesError,
 };
-pub use state_pack::{is_state_pack, read_state_pack, write_state_pack, StatePack, StatePackError};
+pub use state_pack::{
+    is_state_pack, read_state_pack, write_state_pack, Leg, PackHistory, StatePack, StatePackError,
+};
 pub use timeseries::{ParticleAggregates, TimeSeriesRow, TimeSeriesWriter};
 pub use xdmf::{write_xdmf, xdmf_text};

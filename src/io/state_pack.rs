@@ -10,7 +10,11 @@
 //! impeller, every body's complete state as the checkpoint stores it
 //! ([`super::checkpoint::body_to_row`]: position, orientation, velocity, angular velocity,
 //! time, the last step's velocity change and averaged contact load), exact. The field
-//! datasets are chunked by z-plane, shuffled and deflated.
+//! datasets are chunked by z-plane, shuffled and deflated. From version 2, a pack of a run
+//! directory also carries the run's history ([`PackHistory`]): `/timeseries` `u8[]`, the run's
+//! `timeseries.csv` up to the pack's step as written (deflated), and the attribute `legs`, the
+//! legs the run was stepped in (JSON), so that a run continued from the pack goes on as the same
+//! run: one time series, its legs counted.
 //!
 //! Root attributes: `format` ([`STATE_PACK_FORMAT`]), `version` ([`STATE_PACK_VERSION`]),
 //! `time_step`, `nx`, `ny`, `nz`, `case` (the case fingerprint, as checkpoints store it),
@@ -31,8 +35,31 @@ use crate::lattice::Grid;
 /// The `format` attribute of a state pack.
 pub const STATE_PACK_FORMAT: &str = "slurry state pack";
 
-/// The layout version this build writes and reads.
-pub const STATE_PACK_VERSION: u64 = 1;
+/// The layout version this build writes; it reads this one and version 1 (no history).
+pub const STATE_PACK_VERSION: u64 = 2;
+
+/// One leg of a run: a stretch of steps between two state packs (or from the run's initial
+/// state), stepped in one process or a chain of resumes from its own checkpoints, and what it
+/// started from. A campaign that outlives its machines continues a run leg by leg.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Leg {
+    /// The step the leg started from (0, or the state pack's step).
+    pub first_step: u64,
+    /// The last step it reached (for a leg still running, the last step packed or recorded).
+    pub last_step: u64,
+    /// What it started from, for people: "the case's initial state", or the state pack.
+    pub start: String,
+}
+
+/// What a state pack carries of the run's past: its time series and its legs.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PackHistory {
+    /// The run's `timeseries.csv` up to and including the pack's step: its header and rows,
+    /// byte for byte as written.
+    pub timeseries: String,
+    /// The legs the run was stepped in, in order, the last ending at the pack's step.
+    pub legs: Vec<Leg>,
+}
 
 /// A run's state at one even step: the flow as density and velocity per node (`f32`), the
 /// force field of the last step, and every body's exact state.
@@ -55,6 +82,9 @@ pub struct StatePack {
     pub case: String,
     /// What the pack is of, for people (case name and scale where known).
     pub label: String,
+    /// The run's history up to the pack's step, where the pack was written from a run
+    /// directory (version 2; none in a version-1 pack).
+    pub history: Option<PackHistory>,
 }
 
 /// A state pack that cannot be used.
@@ -135,18 +165,29 @@ pub fn fingerprint_digest(case: &str) -> String {
 }
 
 impl StatePack {
-    /// The metadata that the checksum covers.
-    fn meta(&self) -> String {
+    /// The metadata that the checksum covers, for layout `version`.
+    fn meta(&self, version: u64) -> String {
         let g = self.grid;
         format!(
-            "{STATE_PACK_FORMAT}\n{STATE_PACK_VERSION}\n{}\n{}\n{}\n{} {} {}\n",
+            "{STATE_PACK_FORMAT}\n{version}\n{}\n{}\n{}\n{} {} {}\n",
             self.time_step, g.nx, g.ny, g.nz, self.case, self.label
         )
     }
 
-    /// The content checksum of the pack ([`content_checksum`] of the metadata and the
-    /// datasets' little-endian bytes, in the order rho, u, force, bodies).
+    /// The content checksum of the pack as this build writes it ([`content_checksum`] of the
+    /// metadata and the datasets' little-endian bytes, in the order rho, u, force, bodies, then
+    /// the history's time series and legs).
     pub fn checksum(&self) -> String {
+        self.checksum_of_version(STATE_PACK_VERSION)
+    }
+
+    /// The legs as the `legs` attribute stores them (JSON).
+    fn legs_json(history: &PackHistory) -> String {
+        serde_json::to_string(&history.legs).expect("legs serialise")
+    }
+
+    /// The checksum as layout `version` computes it (version 1: no history).
+    fn checksum_of_version(&self, version: u64) -> String {
         let mut parts = vec![f32_bytes(&self.rho), f32_bytes(self.velocity.as_flattened())];
         if let Some(f) = &self.force {
             parts.push(f32_bytes(f.as_flattened()));
@@ -155,8 +196,12 @@ impl StatePack {
             let flat: Vec<f64> = b.iter().flat_map(body_to_row).collect();
             parts.push(f64_bytes(&flat));
         }
+        if let Some(h) = &self.history {
+            parts.push(h.timeseries.as_bytes().to_vec());
+            parts.push(Self::legs_json(h).into_bytes());
+        }
         let refs: Vec<&[u8]> = parts.iter().map(Vec::as_slice).collect();
-        content_checksum(&self.meta(), &refs)
+        content_checksum(&self.meta(version), &refs)
     }
 
     /// Refuses a pack of another grid or case than the run it is to continue: `grid` and
@@ -248,6 +293,22 @@ pub fn write_state_pack(path: &Path, pack: &StatePack) -> Result<(), FieldsError
             let d = file.new_dataset::<f64>().shape([b.len(), BODY_STATE_LEN]).create("bodies")?;
             d.write_raw(&flat)?;
         }
+        if let Some(h) = &pack.history {
+            let bytes = h.timeseries.as_bytes();
+            let d = if bytes.is_empty() {
+                file.new_dataset::<u8>().shape([0]).create("timeseries")?
+            } else {
+                // Chunked (deflate needs it), in chunks of at most 1 MiB.
+                let chunk = bytes.len().min(1 << 20);
+                file.new_dataset::<u8>()
+                    .shape([bytes.len()])
+                    .chunk([chunk])
+                    .deflate(9)
+                    .create("timeseries")?
+            };
+            d.write_raw(bytes)?;
+            string_attr("legs", &StatePack::legs_json(h))?;
+        }
         file.close()?;
         Ok(())
     })
@@ -305,7 +366,7 @@ pub fn read_state_pack(path: &Path) -> Result<StatePack, StatePackError> {
             .map_err(|e| corrupt(format!("attribute {name}: {}", super::hdf5_message(&e))))
     };
     let version = number("version")?;
-    if version != STATE_PACK_VERSION {
+    if !(1..=STATE_PACK_VERSION).contains(&version) {
         return Err(StatePackError::Version { path: path.to_path_buf(), found: version });
     }
     let attr_text = |name: &str| {
@@ -343,6 +404,19 @@ pub fn read_state_pack(path: &Path) -> Result<StatePack, StatePackError> {
     } else {
         None
     };
+    let history = if version >= 2 && file.link_exists("timeseries") {
+        let bytes = file
+            .dataset("timeseries")
+            .and_then(|d| d.read_raw::<u8>())
+            .map_err(|e| corrupt(format!("/timeseries: {}", super::hdf5_message(&e))))?;
+        let timeseries =
+            String::from_utf8(bytes).map_err(|e| corrupt(format!("/timeseries is not UTF-8 text: {e}")))?;
+        let legs = serde_json::from_str(&attr_text("legs")?)
+            .map_err(|e| corrupt(format!("attribute legs is not a list of legs: {e}")))?;
+        Some(PackHistory { timeseries, legs })
+    } else {
+        None
+    };
     let pack = StatePack {
         time_step: number("time_step")?,
         grid,
@@ -352,9 +426,10 @@ pub fn read_state_pack(path: &Path) -> Result<StatePack, StatePackError> {
         bodies,
         case: attr_text("case")?,
         label: attr_text("label")?,
+        history,
     };
     let stored = attr_text("checksum")?;
-    let actual = pack.checksum();
+    let actual = pack.checksum_of_version(version);
     if stored != actual {
         return Err(corrupt(super::checksum::mismatch(&stored, &actual)));
     }
@@ -381,6 +456,10 @@ mod tests {
             ),
             case: "[domain]\nnx = 4\n".into(),
             label: "test".into(),
+            history: Some(PackHistory {
+                timeseries: "step,time\n0,0\n8,8\n".into(),
+                legs: vec![Leg { first_step: 0, last_step: 8, start: "the case's initial state".into() }],
+            }),
         }
     }
 
@@ -392,7 +471,7 @@ mod tests {
         write_state_pack(&path, &p).unwrap();
         assert!(is_state_pack(&path));
         assert_eq!(read_state_pack(&path).unwrap(), p);
-        let bare = StatePack { force: None, bodies: None, ..p };
+        let bare = StatePack { force: None, bodies: None, history: None, ..p };
         write_state_pack(&path, &bare).unwrap();
         assert_eq!(read_state_pack(&path).unwrap(), bare);
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "no temporary file left");
@@ -410,6 +489,13 @@ mod tests {
         q.bodies.as_mut().unwrap()[1].time = 1.0;
         assert_ne!(q.checksum(), c);
         assert_ne!(StatePack { force: None, ..p.clone() }.checksum(), c);
+        let mut q = p.clone();
+        q.history.as_mut().unwrap().timeseries.push_str("10,10\n");
+        assert_ne!(q.checksum(), c);
+        let mut q = p.clone();
+        q.history.as_mut().unwrap().legs[0].last_step = 10;
+        assert_ne!(q.checksum(), c);
+        assert_ne!(StatePack { history: None, ..p.clone() }.checksum(), c);
     }
 
     #[test]

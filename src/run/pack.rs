@@ -1,6 +1,8 @@
 //! State packs of a run: a compact state of a fluid and its bodies ([`state_pack_of`]) or of a
 //! run directory's checkpoint ([`write_run_state_pack`]), and the solver rebuilt from one
-//! ([`pack_fluid_state`], [`restore_coupled_from_pack`]) for `run --from-pack`.
+//! ([`pack_fluid_state`], [`restore_coupled_from_pack`]) for `run --from-pack`; the run's
+//! history that a pack of a run directory carries ([`crate::io::PackHistory`]: its time series
+//! and legs, [`files::LEGS`]), so that a run continued from it goes on as the same run.
 
 use std::path::Path;
 
@@ -11,7 +13,8 @@ use super::{files, BadResume};
 use crate::case::{Case, Precision};
 use crate::coupling::{BodyState, Coupled, CoupledState};
 use crate::drive;
-use crate::io::{read_checkpoint, write_state_pack, StatePack};
+use crate::io::timeseries::{header_for, Columns};
+use crate::io::{atomic_write_bytes, read_checkpoint, write_state_pack, Leg, PackHistory, StatePack};
 use crate::lbm::{Fluid, FluidState, MacroFields, Real};
 
 /// A state pack of `fluid` at its present (even) step, with `bodies`' states (exact), the
@@ -43,7 +46,75 @@ pub fn state_pack_of<T: Real>(
         bodies,
         case: case.to_string(),
         label: label.to_string(),
+        history: None,
     })
+}
+
+/// What the first leg of a run from step 0 started from.
+pub(super) const INITIAL_LEG: &str = "the case's initial state";
+
+/// Writes the run's legs ([`files::LEGS`]) into `out_dir`, atomically.
+pub(super) fn write_legs(out_dir: &Path, legs: &[Leg]) -> anyhow::Result<()> {
+    let path = out_dir.join(files::LEGS);
+    let mut text = serde_json::to_string_pretty(legs).context("cannot serialise the legs")?;
+    text.push('\n');
+    atomic_write_bytes(&path, text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The legs of the run in `run_dir` ([`files::LEGS`]), or, for a run written before the file
+/// existed, one leg from `history_from` (the step its own history starts after: the pack's,
+/// or 0), all ending at `last_step` where the last is concerned.
+///
+/// # Errors
+/// A legs file that cannot be read as a list of legs.
+pub fn read_legs(run_dir: &Path, history_from: u64, last_step: u64) -> anyhow::Result<Vec<Leg>> {
+    let path = run_dir.join(files::LEGS);
+    let mut legs: Vec<Leg> = if path.is_file() {
+        let text =
+            std::fs::read_to_string(&path).with_context(|| format!("cannot read {}", path.display()))?;
+        serde_json::from_str(&text).with_context(|| format!("{}: not a list of legs", path.display()))?
+    } else {
+        let start = if history_from == 0 {
+            INITIAL_LEG.to_string()
+        } else {
+            format!("a state pack at step {history_from}; the run's history before it is not recorded")
+        };
+        vec![Leg { first_step: history_from, last_step, start }]
+    };
+    if let Some(last) = legs.last_mut() {
+        last.last_step = last_step;
+    }
+    Ok(legs)
+}
+
+/// The header and the rows with `step <= through` of the time series `text`, as written.
+fn series_through(text: &str, through: u64) -> String {
+    let mut lines = text.split_inclusive('\n');
+    let mut kept: String = lines.next().unwrap_or_default().to_string();
+    for line in lines.filter(|l| l.ends_with('\n')) {
+        if line.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= through) {
+            kept.push_str(line);
+        }
+    }
+    kept
+}
+
+/// Writes the packed run's time series `text` as the time series at `path` of a run that
+/// continues it, after checking that its header is the one this run writes (`columns`).
+///
+/// # Errors
+/// Another header (a pack of a run with other columns), or the file cannot be written.
+pub(super) fn seed_timeseries(path: &Path, text: &str, columns: Columns, pack: &Path) -> anyhow::Result<()> {
+    let header = text.lines().next().unwrap_or_default();
+    if header != header_for(columns) {
+        return Err(BadResume(format!(
+            "{}: the packed time series has the columns '{header}', this run writes '{}'",
+            pack.display(),
+            header_for(columns)
+        ))
+        .into());
+    }
+    atomic_write_bytes(path, text.as_bytes()).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Whether `pack` was written for `case`: the same fingerprint, or the same case once both are
@@ -105,7 +176,9 @@ pub(super) fn restore_from_pack<T: Real>(solver: &mut Solver<T>, pack: &StatePac
 /// Writes a state pack of the run in `run_dir` at its checkpoint's step to `pack` (labelled
 /// `label`): the run's fluid set up from its case (`case.toml`), its checkpoint
 /// (`checkpoint.h5`) restored exactly, then [`state_pack_of`], with the checkpoint's case
-/// fingerprint (that of the case the run was started with, which `--from-pack` compares).
+/// fingerprint (that of the case the run was started with, which `--from-pack` compares), and
+/// the run's history: its time series up to the checkpoint's step and its legs
+/// ([`read_legs`], the last ending at that step).
 /// Returns the pack's step.
 ///
 /// # Errors
@@ -134,7 +207,15 @@ fn write_pack_typed<T: Real + hdf5::H5Type>(
     fluid.restore(&c.state).with_context(|| {
         format!("{} does not fit the case in {}", checkpoint.display(), run_dir.join(files::CASE).display())
     })?;
-    let p = state_pack_of(&fluid, c.bodies, &c.case, label)?;
+    let mut p = state_pack_of(&fluid, c.bodies, &c.case, label)?;
+    // The run's history up to the checkpoint, where its time series is there.
+    let series = run_dir.join(files::TIMESERIES);
+    if series.is_file() {
+        let text =
+            std::fs::read_to_string(&series).with_context(|| format!("cannot read {}", series.display()))?;
+        let legs = read_legs(run_dir, c.history_from, p.time_step)?;
+        p.history = Some(PackHistory { timeseries: series_through(&text, p.time_step), legs });
+    }
     write_state_pack(pack, &p).with_context(|| format!("cannot write {}", pack.display()))?;
     Ok(p.time_step)
 }

@@ -283,6 +283,20 @@ pub fn mean_height(frames: &[ParticleFrame], tank: &Tank) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// `⟨z_p⟩/H` by revolution over a whole run: the points of `earlier` (from the time series,
+/// `(revolution, ⟨z_p⟩/H)`) before the first frame, then [`mean_height`] of `frames`. A run
+/// continued from a state pack carries the packed run's time series but not its particle
+/// frames; the two agree where both exist (the time series' mean centre height is the same
+/// average, up to rounding).
+pub fn joined_mean_height(earlier: &[(f64, f64)], frames: &[ParticleFrame], tank: &Tank) -> Vec<(f64, f64)> {
+    let from_frames = mean_height(frames, tank);
+    let first = from_frames.first().map_or(f64::INFINITY, |p| p.0);
+    let mut joined: Vec<(f64, f64)> =
+        earlier.iter().copied().filter(|p| p.0 < first - REV_EPS * first.abs().max(1.0)).collect();
+    joined.extend(from_frames);
+    joined
+}
+
 /// The frames of the last `last_revs` revolutions: those with
 /// `rev ≥ rev_last − last_revs` (`rev_last` the last frame's revolution; a relative slack of
 /// 1e-9 keeps a frame that lands exactly on the boundary). Frames are in step order, as in
@@ -621,8 +635,9 @@ impl Stats {
         tank: &Tank,
         options: &StatsOptions,
         power_series: &[(f64, f64, f64)],
+        earlier_height: &[(f64, f64)],
     ) -> Result<Self, StatsError> {
-        let mean = mean_height(frames, tank);
+        let mean = joined_mean_height(earlier_height, frames, tank);
         let steady = steady_state(&mean, options.steady_window_revs, options.steady_tolerance);
         let w = window(frames, tank, options.profile_revs);
         let (Some(first), Some(last)) = (w.first(), w.last()) else {

@@ -159,7 +159,7 @@ fn stats_compute_and_write_round_trip() {
     let power: Vec<(f64, f64, f64)> = (0..=30).map(|k| (0.5 * k as f64, 2.0, 0.4)).collect();
     let mut options = StatsOptions::paper(4.0);
     options.steady_window_revs = 10.0;
-    let stats = Stats::compute(&frames, &statics, &TANK, &options, &power).unwrap();
+    let stats = Stats::compute(&frames, &statics, &TANK, &options, &power, &[]).unwrap();
     assert_eq!((stats.profile_frames, stats.profile_from_rev, stats.profile_to_rev), (21, 5.0, 15.0));
     assert_eq!(stats.volume_fraction.value.len(), 60);
     assert!(stats.steady.steady, "{}", stats.steady.reason);
@@ -281,4 +281,18 @@ fn the_drift_standard_error_matches_white_noise() {
         let ratio = t.drift_se / expected;
         assert!((0.5..1.5).contains(&ratio), "seed {seed}: {} against {expected}", t.drift_se);
     }
+}
+
+#[test]
+fn joined_mean_height_takes_the_series_before_the_first_frame() {
+    // A run continued from a pack at step 40: its frames from step 50, the series from step 0.
+    let frames: Vec<ParticleFrame> = (5..=8).map(|k| frame(10 * k, &[20.0 + k as f64])).collect();
+    let from_frames = mean_height(&frames, &TANK);
+    let earlier: Vec<(f64, f64)> =
+        (0..=8).map(|k| (TANK.revolutions(10 * k), TANK.z_over_h(20.0 + k as f64) + 1e-15)).collect();
+    let joined = joined_mean_height(&earlier, &frames, &TANK);
+    assert_eq!(joined.len(), 9, "steps 0-40 from the series, 50-80 from the frames");
+    assert_eq!(&joined[..5], &earlier[..5]);
+    assert_eq!(&joined[5..], &from_frames[..], "the frames where both exist");
+    assert_eq!(joined_mean_height(&[], &frames, &TANK), from_frames, "a run without earlier rows");
 }
