@@ -28,11 +28,21 @@ fn step_ms_estimate(name: &str, scale: f64) -> f64 {
 }
 
 /// What `slurry reproduce` is about to do for case `name` and about how long it takes on 2
-/// cores, printed before it starts.
-pub fn announce(name: &str, scale: f64, revolutions: f64, until_steady: Option<f64>, quick: bool) -> String {
+/// cores, printed before it starts; `done` revolutions after the ramp are already done (a
+/// resume, or a start from a state pack), so only the rest is estimated.
+pub fn announce(
+    name: &str,
+    scale: f64,
+    revolutions: f64,
+    until_steady: Option<f64>,
+    quick: bool,
+    done: f64,
+) -> String {
     let grid = [251.0, 251.0, 240.0].map(|n: f64| (n * scale).round());
     let ms = step_ms_estimate(name, scale);
-    let duration_for = |revs: f64| duration((revs + 0.5) * 4000.0 * scale * ms / 60_000.0);
+    // The ramp (half a revolution of stepping time) only for a run from its start.
+    let ramp = if done > 0.0 { 0.0 } else { 0.5 };
+    let duration_for = |revs: f64| duration(((revs - done).max(0.0) + ramp) * 4000.0 * scale * ms / 60_000.0);
     let minutes = duration_for(revolutions);
     let what = if quick {
         "about a minute on 2 cores (a smoke test: 0.75 revolution in all, far from steady)".to_string()
@@ -54,9 +64,10 @@ pub fn announce(name: &str, scale: f64, revolutions: f64, until_steady: Option<f
     } else {
         ""
     };
+    let from = if done > 0.0 { format!(" ({done:.1} done)") } else { String::new() };
     format!(
         "reproduce {name}: scale {scale:.3} ({} x {} x {} nodes, d = {:.2}{coarse}), {revolutions} revolutions after the \
-         ramp, {what}",
+         ramp{from}, {what}",
         grid[0],
         grid[1],
         grid[2],

@@ -450,16 +450,23 @@ pub fn cmd_reproduce(a: ReproduceArgs) -> anyhow::Result<()> {
         eprintln!("summary of the six cases in {}", p.display());
         return Ok(());
     }
-    if !a.control.console.quiet {
-        for (name, &(revolutions, cap)) in names.iter().zip(&schedules) {
-            eprintln!("{}", crate::announce(name, scale, revolutions, cap, a.quick));
-        }
-    }
     let out_of = |name: &str| match (&a.out, a.all) {
         (Some(o), true) => o.join(name),
         (Some(o), false) => o.clone(),
         (None, _) => root.join(name),
     };
+    if !a.control.console.quiet {
+        for (name, &(revolutions, cap)) in names.iter().zip(&schedules) {
+            let done = crate::revolutions_done(
+                name,
+                scale,
+                &out_of(name),
+                a.control.resume,
+                a.start_from.as_deref(),
+            );
+            eprintln!("{}", crate::announce(name, scale, revolutions, cap, a.quick, done));
+        }
+    }
     // Every case's directory before the first is run: with --all, a later case refused after
     // hours of the earlier ones would leave the summary unwritten.
     if !a.control.resume && !a.control.overwrite {

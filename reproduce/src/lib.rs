@@ -670,6 +670,25 @@ fn this_session(run_dir: &Path, resume: bool) -> manifest::Session {
 
 /// The step of the last row of the time series of the run in `run_dir` (`None` when there is
 /// none to read), from its time in revolutions (`c`'s steps per revolution).
+/// Revolutions after the ramp that a run of case `name` at scale `scale` into `out` has
+/// already done when it starts: the last row of its time series with `resume`, else the step
+/// of a state pack it starts from (`start_from`), else 0 (also when any of them cannot be read:
+/// this only shortens the announced estimate).
+pub fn revolutions_done(name: &str, scale: f64, out: &Path, resume: bool, start_from: Option<&Path>) -> f64 {
+    let done = || -> Option<f64> {
+        let scaled = scale_case(&paper_case(name).ok()?.case().ok()?, scale).ok()?;
+        let sched = schedule(&scaled, 1.0).ok()?;
+        let step = if resume {
+            last_step_in_timeseries(&out.join("run"), &scaled, &sched)? as u64
+        } else {
+            let pack = start_from.filter(|p| slurry::io::is_state_pack(p))?;
+            hdf5::File::open(pack).ok()?.attr("time_step").ok()?.read_scalar::<u64>().ok()?
+        };
+        Some(sched.revolutions_after_ramp(step))
+    };
+    done().unwrap_or(0.0)
+}
+
 fn last_step_in_timeseries(run_dir: &Path, c: &Case, sched: &Schedule) -> Option<f64> {
     let path = run_dir.join(slurry::run::files::TIMESERIES);
     let ts = report::read_timeseries(&path, c.grid().nz as f64, sched.steps_per_revolution).ok()?;

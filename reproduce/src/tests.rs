@@ -360,16 +360,21 @@ fn the_default_run_goes_to_steady_state_and_says_so() {
         assert_eq!((r, cap), (first, first + 100.0), "{name}");
         assert!(check_until_steady(cap, r).is_ok(), "{name}");
     }
-    let steady = announce("pbt-ld2", DEFAULT_SCALE, 100.0, Some(200.0), false);
+    let steady = announce("pbt-ld2", DEFAULT_SCALE, 100.0, Some(200.0), false, 0.0);
     assert!(steady.contains("to steady state") && steady.contains("at most to 200 revolutions"), "{steady}");
     assert!(steady.contains("d = 3.00") && steady.contains("not a reproduction"), "{steady}");
     // 100.5 revolutions of 1000 steps at 27 ms, then to 200.5.
     assert!(steady.contains("roughly 45 minutes") && steady.contains("about 90 minutes in all"), "{steady}");
-    let fixed = announce("pbt-ld2", 0.5, 30.0, None, false);
+    let fixed = announce("pbt-ld2", 0.5, 30.0, None, false, 0.0);
     // 30.5 revolutions of 2000 steps at 108 ms.
     assert!(fixed.contains("roughly 110 minutes") && fixed.contains("108 ms per step"), "{fixed}");
-    let long = announce("pbt-ld1", 0.5, 200.0, Some(300.0), false);
+    let long = announce("pbt-ld1", 0.5, 200.0, Some(300.0), false, 0.0);
     assert!(long.contains("roughly 19.2 hours") && long.contains("about 28.8 hours in all"), "{long}");
+    // A continuation from revolution 222.6 (a state pack) to 250: only the rest, no ramp.
+    let leg = announce("pbt-ld1", DEFAULT_SCALE, 250.0, Some(300.0), false, 222.6);
+    // 27.4 revolutions of 1000 steps at 43.2 ms; 77.4 to the cap.
+    assert!(leg.contains("(222.6 done)") && leg.contains("roughly 20 minutes"), "{leg}");
+    assert!(leg.contains("about 56 minutes in all"), "{leg}");
     assert!(
         fixed.contains("not checked for steady state") && !fixed.contains("not a reproduction"),
         "{fixed}"
