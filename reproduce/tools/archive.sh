@@ -6,12 +6,13 @@
 # run's start pack in DEST/start/ (`slurry start-pack`: its last frames at a blade position,
 # under 1 MB, so that `--start-from DEST/start` works once RUN_OUT is gone), and the state pack
 # of its last checkpoint in DEST/state.h5 (`slurry state-pack`: 4 MB at s = 1/4, so that
-# `--start-from DEST/state.h5` continues the run itself; skipped with NO_STATE=1). Fields, particle
+# `--start-from DEST/state.h5` continues the run itself, as one run: the pack carries its time
+# series and legs; LABEL names it, default RUN_OUT; skipped with NO_STATE=1). Fields, particle
 # histories and checkpoints stay out of git. SLURRY names the binary (default
 # target/release/slurry). Write the archive's MANIFEST.md by hand: what the run shows, its
 # sessions, its host.
 set -eu
-if [ $# -ne 2 ]; then sed -n '2,10p' "$0"; exit 2; fi
+if [ $# -ne 2 ]; then sed -n "2,/^set -eu/p" "$0" | sed "\$d"; exit 2; fi
 SLURRY=${SLURRY:-target/release/slurry}
 src=$1 dest=$2
 for f in manifest.json report.md reproduce.json statistics.json statistics.h5 run/summary.json run/timeseries.csv; do
@@ -28,5 +29,5 @@ cp "$src/run/summary.json" "$src/run/timeseries.csv" "$dest/"
 [ -f "$src/start.json" ] && cp "$src/start.json" "$dest/"
 cp "$src"/*.png "$dest/"
 "$SLURRY" start-pack "$src" "$dest/start"
-[ "${NO_STATE:-0}" = 1 ] || "$SLURRY" state-pack "$src/run" "$dest/state.h5"
+[ "${NO_STATE:-0}" = 1 ] || "$SLURRY" state-pack "$src/run" "$dest/state.h5" --label "${LABEL:-$src}"
 ls -la "$dest"
