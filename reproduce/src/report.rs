@@ -379,8 +379,11 @@ impl Results {
             self.power_window.2
         );
         let _ = writeln!(t, "steady {} drift {}", self.steady, sig6(self.steady_drift));
-        let _ = writeln!(t, "\n<z_p>/H series (rev, value)");
-        for (r, z) in &self.stats.mean_height {
+        // The series of the steady test's window: a run continued from a state pack that
+        // carries its run's history has the whole run's series, hundreds of revolutions.
+        let _ = writeln!(t, "\n<z_p>/H series, last {STEADY_REVOLUTIONS} revolutions (rev, value)");
+        let last = self.stats.mean_height.last().map_or(0.0, |p| p.0);
+        for (r, z) in self.stats.mean_height.iter().filter(|p| p.0 >= last - STEADY_REVOLUTIONS - 1e-9) {
             let _ = writeln!(t, "{} {}", sig6(*r), sig6(*z));
         }
         let pdf = |p: &stats::AnglePdf| (p.phi.clone(), p.pdf.clone());

@@ -19,17 +19,31 @@
 //! from numbers copied into this file.
 //!
 //! Then the paper's ordering over ℓ/d where the archives support it: ⟨z_p⟩/H of ℓ/d = 4 above
-//! that of ℓ/d = 2 (archived 10-revolution windows: 0.365 ± 0.006 against 0.321 ± 0.011; the
-//! paper's text: 0.37 against 0.31). Each value is printed beside Table 2 and the text, with
+//! that of ℓ/d = 2 and of ℓ/d = 1 (archived 10-revolution windows: 0.365 ± 0.006 against
+//! 0.321 ± 0.011 and 0.321 ± 0.014; the paper's text: 0.37 against 0.31 and 0.26). The archives
+//! do not support the paper's ℓ/d = 2 above ℓ/d = 1 at this scale (pbt-ld1's steady level,
+//! 0.338 over its last 20 revolutions, is above pbt-ld2's 0.330), so that is printed, not
+//! asserted. Each value is printed beside Table 2 and the text, with
 //! its deviation, never asserted against them (the resolution study, `reproduce/README.md`,
 //! says how far s = 1/4 is from the paper). The window's statistics (⟨z_p⟩/H series, φ(z),
 //! k*, the orientation pdfs, the power numbers) are snapshot-tested with insta: the run is
 //! bitwise the same for any thread count.
 //!
-//! **Not covered yet: pbt-ld1.** It has no steady state at s = 1/4 to continue (its archived
-//! 200-revolution run predates state packs, and from the bed it needs more than 200
-//! revolutions, about 2.5 h on 2 cores); its pack goes into [`CASES`] once it exists, with
-//! ℓ/d = 4 above ℓ/d = 1 among the orderings.
+//! **Known deviation: pbt-ld1's Po_f.** Over the 10 revolutions from its pack, Po_f is 1.8645,
+//! 4.4σ below its band (1.9022 ± 0.0258). The same 10 revolutions continued exactly from the
+//! checkpoint the pack was written from (`--resume`, bitwise) give 1.9005, inside it, with
+//! ⟨z_p⟩/H 0.3403 in both. The two runs' Po_f agree to 0.004 over the first 500 steps after
+//! the restart, then differ by ±0.05–0.1 in 500-step means of either sign: the pack's restart
+//! starts another realisation of the chaotic flow, and this one's window is low. σ from 15
+//! windows of one run understates the spread between realisations (pbt-ld2's pair, exact
+//! against pack, differed by 1.0σ; pbt-ld1's by 4.2σ). The value is asserted at its measured
+//! 1.8645 instead, so that a change still fails; the other three quantities keep their bands.
+//!
+//! **pbt-ld1's band is wide.** Its pack is the end of a run from the dry bed continued in five
+//! legs to its steady test (250 revolutions, `reproduce/pbt-ld1/runs/2026-12-08-s0.25-steady`),
+//! whose joined series gives the band. That series still rises over revolutions 100–250
+//! (10-revolution means from 0.29 to 0.339), so σ of its window means (0.014 in ⟨z_p⟩/H) holds
+//! that drift as well as the fluctuation; the last five windows alone give 0.336 ± 0.009 (3σ).
 //!
 //! Each continuation is about 10 000 steps of the coupled step (25–45 ms each on 2 cores).
 
@@ -60,13 +74,35 @@ struct SteadyCase {
     name: &'static str,
     /// The archive holding `state.h5`.
     pack: &'static str,
-    /// The archived steady run (200 revolutions) whose windows give the bands.
+    /// The archived steady run (200 revolutions or more from the bed) whose windows give the
+    /// bands.
     bands: &'static str,
+    /// A value known to lie outside its band (module docs, "Known deviation"): the quantity's
+    /// key in [`QUANTITIES`] and its measured value, which is asserted instead (to 1e-5, the
+    /// rounding of its five decimals; the run is bitwise deterministic), so that any change to
+    /// it still fails.
+    known: Option<(&'static str, f64)>,
 }
 
-const CASES: [SteadyCase; 2] = [
-    SteadyCase { name: "pbt-ld2", pack: "2026-12-07-s0.25-steady", bands: "2026-11-25-s0.25-exact-r200" },
-    SteadyCase { name: "pbt-ld4", pack: "2026-12-07-s0.25-steady", bands: "2026-11-26-s0.25-r200" },
+const CASES: [SteadyCase; 3] = [
+    SteadyCase {
+        name: "pbt-ld1",
+        pack: "2026-12-08-s0.25-steady",
+        bands: "2026-12-08-s0.25-steady",
+        known: Some(("po_fluid", 1.86448)),
+    },
+    SteadyCase {
+        name: "pbt-ld2",
+        pack: "2026-12-07-s0.25-steady",
+        bands: "2026-11-25-s0.25-exact-r200",
+        known: None,
+    },
+    SteadyCase {
+        name: "pbt-ld4",
+        pack: "2026-12-07-s0.25-steady",
+        bands: "2026-11-26-s0.25-r200",
+        known: None,
+    },
 ];
 
 /// The asserted quantities, in the order of [`Band`]s: ⟨z_p⟩/H and the three power numbers,
@@ -206,7 +242,15 @@ fn steady_states_continued_from_their_packs() {
                 K * band.sd,
                 band.windows
             ));
-            if !band.contains(v) {
+            if let Some((_, measured)) = c.known.filter(|(k, _)| *k == key) {
+                println!("  {q:8} a known deviation (module docs): asserted at its measured {measured:.5}");
+                if (v - measured).abs() > 1e-5 {
+                    failures.push(format!(
+                        "{} {q} = {v:.5}, not the known deviation's measured {measured:.5}",
+                        c.name
+                    ));
+                }
+            } else if !band.contains(v) {
                 failures.push(format!(
                     "{} {q} = {v:.4} outside {:.4} ± {:.4} (archive {})",
                     c.name,
@@ -225,10 +269,12 @@ fn steady_states_continued_from_their_packs() {
     assert!(failures.is_empty(), "outside the archived steady bands:\n{}", failures.join("\n"));
     // The paper's ordering over ℓ/d (its text: 0.37 for ℓ/d = 4 against 0.31 for ℓ/d = 2).
     let h = |n: &str| heights.iter().find(|(c, _)| *c == n).unwrap().1;
-    assert!(
-        h("pbt-ld4") > h("pbt-ld2"),
-        "<z_p>/H: ℓ/d = 4 {} not above ℓ/d = 2 {}",
-        h("pbt-ld4"),
-        h("pbt-ld2")
+    for lower in ["pbt-ld2", "pbt-ld1"] {
+        assert!(h("pbt-ld4") > h(lower), "<z_p>/H: ℓ/d = 4 {} not above {lower} {}", h("pbt-ld4"), h(lower));
+    }
+    println!(
+        "<z_p>/H of ℓ/d = 2 {:.4} against ℓ/d = 1 {:.4} (the paper: 0.31 above 0.26; not asserted, module docs)",
+        h("pbt-ld2"),
+        h("pbt-ld1")
     );
 }
