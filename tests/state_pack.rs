@@ -129,15 +129,13 @@ fn commands_pack_and_continue() {
         &with_run("steps = 60\noutput_every = 20\ncheckpoint_every = 60", "nu = 0.02"),
     );
     let b = dir.path().join("b");
-    let o = common::slurry(&[
-        "run",
-        longer.to_str().unwrap(),
-        "--out",
-        b.to_str().unwrap(),
-        "--quiet",
-        "--from-pack",
-        pack.to_str().unwrap(),
-    ]);
+    // `slurry run CASE --out b --quiet EXTRA...`
+    let run_b = |case: &Path, extra: &[&str]| {
+        let mut args = vec!["run", case.to_str().unwrap(), "--out", b.to_str().unwrap(), "--quiet"];
+        args.extend_from_slice(extra);
+        common::slurry(&args)
+    };
+    let o = run_b(&longer, &["--from-pack", pack.to_str().unwrap()]);
     assert!(o.status.success(), "{}", common::stderr(&o));
     // One run: the packed run's rows as written, then this leg's after the pack's step.
     let series_a = std::fs::read_to_string(a.join("timeseries.csv")).unwrap();
@@ -165,14 +163,7 @@ fn commands_pack_and_continue() {
         "further.toml",
         &with_run("steps = 80\noutput_every = 20", "nu = 0.02"),
     );
-    let o = common::slurry(&[
-        "run",
-        further.to_str().unwrap(),
-        "--out",
-        b.to_str().unwrap(),
-        "--quiet",
-        "--resume",
-    ]);
+    let o = run_b(&further, &["--resume"]);
     assert!(o.status.success(), "{}", common::stderr(&o));
     let steps: Vec<String> = std::fs::read_to_string(b.join("timeseries.csv"))
         .unwrap()

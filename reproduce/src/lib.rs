@@ -300,6 +300,30 @@ pub struct ReproduceOptions {
     pub gpu: bool,
 }
 
+impl ReproduceOptions {
+    /// A fresh run of `revolutions` at scale `scale` into `out`, beds cached in `cache`, quiet,
+    /// on the CPU, everything else as the command line's defaults (no resume, no start, the
+    /// case's contacts and Mach limit, a fixed length).
+    pub fn quiet_run(scale: f64, revolutions: f64, out: PathBuf, cache: PathBuf) -> Self {
+        Self {
+            scale,
+            revolutions,
+            out,
+            cache,
+            resume: false,
+            switch_contacts: false,
+            overwrite: false,
+            quiet: true,
+            bed: BedMethod::default(),
+            contacts: ContactOverrides::default(),
+            mach_limit: None,
+            until_steady: None,
+            start_from: None,
+            gpu: false,
+        }
+    }
+}
+
 /// Revolutions between two steady tests of `--until-steady`.
 pub const STEADY_CHECK_REVOLUTIONS: f64 = 10.0;
 

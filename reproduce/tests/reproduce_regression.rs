@@ -46,22 +46,7 @@ use slurry_reproduce::{reproduce, ReproduceOptions};
 #[test]
 fn pbt_ld2_reduced_run() {
     let dir = tempfile::tempdir().unwrap();
-    let opts = ReproduceOptions {
-        scale: 0.25,
-        revolutions: 0.1,
-        out: dir.path().join("pbt-ld2"),
-        cache: dir.path().join("cache"),
-        resume: false,
-        switch_contacts: false,
-        overwrite: false,
-        quiet: true,
-        bed: Default::default(),
-        contacts: Default::default(),
-        mach_limit: None,
-        until_steady: None,
-        start_from: None,
-        gpu: false,
-    };
+    let opts = ReproduceOptions::quiet_run(0.25, 0.1, dir.path().join("pbt-ld2"), dir.path().join("cache"));
     let s = reproduce("pbt-ld2", &opts).unwrap();
     let r = &s.results;
     for f in [

@@ -34,20 +34,10 @@ pub fn continuation(
     let ramp = sched.ramp_steps.div_ceil(sched.output_every) * sched.output_every;
     let after = (p.time_step - ramp) as f64 / sched.steps_per_revolution;
     let options = ReproduceOptions {
-        scale,
-        revolutions: after + revolutions,
-        out: out.to_path_buf(),
-        cache: out.join("cache"),
-        resume: false,
-        switch_contacts: false,
-        overwrite: false,
-        quiet: true,
-        bed: Default::default(),
-        contacts: Default::default(),
         mach_limit: Some(mach_limit),
-        until_steady: None,
         start_from: Some(pack.clone()),
         gpu,
+        ..ReproduceOptions::quiet_run(scale, after + revolutions, out.to_path_buf(), out.join("cache"))
     };
     Continuation { pack, step: p.time_step, options }
 }
