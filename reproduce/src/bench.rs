@@ -66,6 +66,13 @@ pub struct CoupledBench {
     pub bodies_ms: f64,
     /// Phase 8: contacts and the sub-stepped body update, ms per step.
     pub contact_ms: f64,
+    /// With implicit damping, the part of `contact_ms` spent assembling its systems, ms per
+    /// step (0 with explicit damping).
+    pub implicit_assembly_ms: f64,
+    /// With implicit damping, the part of `contact_ms` spent solving them, ms per step.
+    pub implicit_solve_ms: f64,
+    /// With implicit damping, conjugate-gradient iterations per fluid step (all sub-steps).
+    pub implicit_iterations: f64,
     /// The immersed boundary's share: geometry + interior + forcing, ms per step.
     pub ibm_ms: f64,
     /// Per-output work of a run divided by its output interval, ms per step.
@@ -265,6 +272,13 @@ pub fn bench_case(
     let start_step = c.fluid().time();
     let rebuilds0 = c.contact_list_rebuilds();
     let full0 = c.contacts().map_or(0, |k| k.full_rebuilds());
+    let implicit = |c: &Coupled<f32>| {
+        c.contacts().map_or((0.0, 0.0, 0), |k| {
+            let (a, s, _) = k.implicit_solve_time();
+            (a, s, k.implicit_cg_iterations())
+        })
+    };
+    let implicit0 = implicit(&c);
     let (mut max_damping_rate, mut max_spring_rate) = (0.0f64, 0.0f64);
     for _ in 0..steps {
         c.step().map_err(|e| anyhow::anyhow!("timed step: {e}"))?;
@@ -299,6 +313,9 @@ pub fn bench_case(
         fluid_in_step_ms: per(timings.fluid),
         bodies_ms: per(timings.bodies),
         contact_ms: per(timings.contacts),
+        implicit_assembly_ms: per(implicit(&c).0 - implicit0.0),
+        implicit_solve_ms: per(implicit(&c).1 - implicit0.1),
+        implicit_iterations: (implicit(&c).2 - implicit0.2) as f64 / steps as f64,
         ibm_ms: per(timings.geometry + timings.interior + timings.forcing),
         output_ms,
         ratio: step_ms / fluid_ms,
