@@ -235,14 +235,16 @@ fn steady_states_continued_from_their_packs() {
             let (paper, dev) = against.map_or(("—".into(), "—".into()), |(x, d)| {
                 (format!("{x:.3}"), format!("{d:+.3} ({:+.1} %)", 100.0 * d / x))
             });
+            let known = c.known.filter(|(k, _)| *k == key);
             md.push_str(&format!(
-                "| {} | {q} | {v:.4} | {:.4} ± {:.4} ({} windows) | {paper} | {dev} |\n",
+                "| {} | {q} | {v:.4}{} | {:.4} ± {:.4} ({} windows) | {paper} | {dev} |\n",
                 c.name,
+                if known.is_some() { " (known deviation: asserted at its measured value)" } else { "" },
                 band.mean,
                 K * band.sd,
                 band.windows
             ));
-            if let Some((_, measured)) = c.known.filter(|(k, _)| *k == key) {
+            if let Some((_, measured)) = known {
                 println!("  {q:8} a known deviation (module docs): asserted at its measured {measured:.5}");
                 if (v - measured).abs() > 1e-5 {
                     failures.push(format!(
