@@ -41,6 +41,15 @@ impl Columns {
     ];
 }
 
+/// The complete rows (each ending in a newline) among `lines` whose step is at most `through`,
+/// as written: what a resume keeps, and what a state pack carries of a run's series.
+pub fn rows_through<'a>(lines: impl Iterator<Item = &'a str>, through: u64) -> String {
+    lines
+        .filter(|l| l.ends_with('\n'))
+        .filter(|l| l.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= through))
+        .collect()
+}
+
 /// The header line (without the newline) with the given column groups.
 pub fn header_for(c: Columns) -> String {
     let mut h = String::from(HEADER.trim_end_matches(",mlups"));
@@ -209,13 +218,7 @@ impl TimeSeriesWriter {
                 format!("{}: not a slurry time series (unexpected header)", path.display()),
             ));
         };
-        let mut kept = format!("{}\n", header_for(columns));
-        for line in lines.filter(|l| l.ends_with('\n')) {
-            match line.split(',').next().and_then(|s| s.parse::<u64>().ok()) {
-                Some(step) if step <= through_step => kept.push_str(line),
-                _ => {}
-            }
-        }
+        let kept = format!("{}\n{}", header_for(columns), rows_through(lines, through_step));
         atomic_write_bytes(path, kept.as_bytes())?;
         let file = OpenOptions::new().append(true).open(path)?;
         Ok(Self { path: path.to_path_buf(), file, columns })

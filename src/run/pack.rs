@@ -13,7 +13,7 @@ use super::{files, BadResume};
 use crate::case::{Case, Precision};
 use crate::coupling::{BodyState, Coupled, CoupledState};
 use crate::drive;
-use crate::io::timeseries::{header_for, Columns};
+use crate::io::timeseries::{header_for, rows_through, Columns};
 use crate::io::{atomic_write_bytes, read_checkpoint, write_state_pack, Leg, PackHistory, StatePack};
 use crate::lbm::{Fluid, FluidState, MacroFields, Real};
 
@@ -90,13 +90,8 @@ pub fn read_legs(run_dir: &Path, history_from: u64, last_step: u64) -> anyhow::R
 /// The header and the rows with `step <= through` of the time series `text`, as written.
 fn series_through(text: &str, through: u64) -> String {
     let mut lines = text.split_inclusive('\n');
-    let mut kept: String = lines.next().unwrap_or_default().to_string();
-    for line in lines.filter(|l| l.ends_with('\n')) {
-        if line.split(',').next().and_then(|s| s.parse::<u64>().ok()).is_some_and(|s| s <= through) {
-            kept.push_str(line);
-        }
-    }
-    kept
+    let header = lines.next().unwrap_or_default();
+    format!("{header}{}", rows_through(lines, through))
 }
 
 /// Writes the packed run's time series `text` as the time series at `path` of a run that
